@@ -1,0 +1,12 @@
+/*
+ * commands.h — the subcommands of the host tool build/plotkin.
+ * Each lives in its own host-sim/cmd_*.c; main.c dispatches on argv[1].
+ * Exit status convention: 0 success, 1 runtime failure (alarm, I/O),
+ * 2 bad usage or bad input.
+ */
+#ifndef PLOTKIN_COMMANDS_H
+#define PLOTKIN_COMMANDS_H
+
+int cmd_refine(int argc, char **argv); /* host-sim/cmd_refine.c */
+
+#endif
