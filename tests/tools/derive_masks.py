@@ -1395,8 +1395,22 @@ def angle(u, v):
     nu, nv = math.hypot(*u), math.hypot(*v)
     if nu == 0 or nv == 0:
         return float('nan')
-    c = sum(a * b for a, b in zip(u, v)) / (nu * nv)
-    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+    u = [a / nu for a in u]
+    v = [a / nv for a in v]
+    dot = sum(a * b for a, b in zip(u, v))
+    if len(u) == 2:
+        cr2 = (u[0] * v[1] - u[1] * v[0]) ** 2
+    else:
+        cr2 = ((u[1] * v[2] - u[2] * v[1]) ** 2 + (u[2] * v[0] - u[0] * v[2]) ** 2 +
+               (u[0] * v[1] - u[1] * v[0]) ** 2)
+    return math.degrees(math.atan2(math.sqrt(cr2), dot))
+
+
+def exact_parallel(u, v):
+    """u and v (Fractions) point the same way exactly."""
+    d = len(u)
+    cross0 = all(u[i] * v[j] == u[j] * v[i] for i in range(d) for j in range(i + 1, d))
+    return cross0 and sum(a * b for a, b in zip(u, v)) > 0
 
 
 def chord_at(P, i, closed, p):
@@ -1500,6 +1514,296 @@ def verify_all(rules, seed=1):
             print('  FAIL %s: S not reversal-symmetric' % r.name())
             allok = False
     return allok
+
+
+
+# --------------------------------------------------------------------------
+# Reference vectors, computed independently of the mask tables: de Boor
+# evaluation of the (uniform, periodic or clamped) B-spline at the anchor's
+# parameter, exact fixed points of stationary short polygons, and for the
+# tangents that no closed form gives (DLG, replace end points) the direction
+# of a chord of the polygon refined 50 levels deep around the anchor (exact
+# refinement of a window; decimal output).
+# --------------------------------------------------------------------------
+
+DEEP_LEVELS = 50
+
+
+def coord(L, k):
+    return [p[k] for p in L]
+
+
+def uniform_eval(ctrl, D, t, deriv=False):
+    """Uniform B-spline, control values ctrl[0..], knots 0,1,2,..., at t."""
+    z = 0 * ctrl[0]
+    ctrl = [z] * (D + 1) + list(ctrl) + [z] * (D + 1)   # zero padding: no contribution
+    T = [Fr(i) for i in range(len(ctrl) + D + 1)]
+    return bspline_eval_knots(ctrl, T, D, Fr(t) + D + 1, deriv)
+
+
+def ref_uniform(L, D, a, closed):
+    """Exact (pos, tan) of the uniform degree-D spline at anchor a of L."""
+    n = len(L)
+    dim = len(L[0])
+    if closed:
+        R = D + 2
+        ctrl = [L[(a + r) % n] for r in range(-R, R + 1)]
+        idx = R
+    else:
+        ctrl = L
+        idx = a
+    t = idx + (Fr(D + 1, 2) if D % 2 else Fr(D, 2) + 1)
+    pos = tuple(uniform_eval(coord(ctrl, k), D, t) for k in range(dim))
+    tan = tuple(uniform_eval(coord(ctrl, k), D, t, True) for k in range(dim)) if D >= 2 else None
+    return pos, tan
+
+
+def ref_clamped(L, D, a):
+    n = len(L)
+    dim = len(L[0])
+    if n <= D:      # too few points: one level at degree n-1 first
+        L2 = refine_pts(L, 'bspline', D, False, 'clamped')
+        T = clamped_knots(len(L2), D)
+        u = Fr(a, n - 1) * (len(L2) - D)
+        ctrl = L2
+    else:
+        T, par = clamped_params(n, D)
+        u = par[a]
+        ctrl = L
+    pos = tuple(bspline_eval_knots(coord(ctrl, k), T, D, u) for k in range(dim))
+    if D >= 2:
+        tan = tuple(bspline_eval_knots(coord(ctrl, k), T, D, u, True) for k in range(dim))
+    elif a == 0:
+        tan = tuple(L[1][k] - L[0][k] for k in range(dim))
+    elif a == n - 1:
+        tan = tuple(L[-1][k] - L[-2][k] for k in range(dim))
+    else:
+        tan = None
+    return pos, tan
+
+
+def deep_chord(L, r, a, closed):
+    """Tangent direction (floats) at vertex a of L, from a window refined
+    DEEP_LEVELS levels exactly. DLG: symmetric chord around vertex a's
+    descendant (2^J a); replace: the chord L1 - L0 at the end point."""
+    n = len(L)
+    R = 10
+    if r.scheme == 'dlg':
+        if closed:
+            W = [L[(a + k) % n] for k in range(-R, R + 1)]
+            lo, d = -R, 0   # window covers global index d+lo.. ; descendant at window index R
+            c = R
+            for _ in range(DEEP_LEVELS):
+                W2 = refine_pts(W, 'dlg', 0, False, None)
+                c = 2 * c
+                W = W2[c - R:c + R + 1]
+                c = R
+            P0, P1 = W[c - 1], W[c + 1]
+        else:
+            o = max(0, a - R)
+            W = L[o:a + R + 1]
+            c = a - o
+            genuine_l, genuine_r = o == 0, a + R + 1 >= n
+            for _ in range(DEEP_LEVELS):
+                W2 = refine_pts(W, 'dlg', 0, False, None)
+                c2 = 2 * c
+                lo = 0 if genuine_l else 3
+                hi = len(W2) if genuine_r else len(W2) - 3
+                s0 = max(lo, c2 - R)
+                s1 = min(hi, c2 + R + 1)
+                genuine_l = genuine_l and s0 == 0
+                genuine_r = genuine_r and s1 == len(W2)
+                W = W2[s0:s1]
+                c = c2 - s0
+            if c == 0:
+                P0, P1 = W[0], W[1]
+            elif c == len(W) - 1:
+                P0, P1 = W[-2], W[-1]
+            else:
+                P0, P1 = W[c - 1], W[c + 1]
+        return [float(y - x) for x, y in zip(P0, P1)]
+    # replace end point: left end a == 0, right end via reversal
+    assert r.ends == 'replace'
+    if a == n - 1:
+        t = deep_chord(list(reversed(L)), r, 0, closed)
+        return [-v for v in t]
+    assert a == 0
+    W = L[:2 * R]
+    for _ in range(DEEP_LEVELS):
+        W = refine_pts(W, 'bspline', r.D, False, 'replace')[:2 * R]
+    return [float(y - x) for x, y in zip(W[0], W[1])]
+
+
+def static_fixed_point(L, r):
+    """Limit points of a short replace polygon that refinement maps to the same
+    size: the fixed point x = S x with both end points kept."""
+    n = len(L)
+    S = smatrix(n, r.scheme, r.D, False, r.ends)
+    # interior unknowns 1..n-2: x_i - sum_{j interior} S_ij x_j = S_i0 x_0 + S_i,n-1 x_n-1
+    M = [[(1 if i == j else 0) - S[i][j] for j in range(1, n - 1)] for i in range(1, n - 1)]
+    out = [L[0]]
+    cols = []
+    for k in range(len(L[0])):
+        rhs = [S[i][0] * L[0][k] + S[i][n - 1] * L[-1][k] for i in range(1, n - 1)]
+        cols.append(solve(M, rhs))
+    for i in range(n - 2):
+        out.append(tuple(c[i] for c in cols))
+    return out + [L[-1]]
+
+
+def ref_limit(r, L):
+    """Independent reference: list of (pos, tan, tan_is_decimal)."""
+    n = len(L)
+    dim = len(L[0]) if L else 2
+    if n == 0:
+        return []
+    if n == 1:
+        return [(L[0], None, False)]
+    if r.closed:
+        out = []
+        for a in range(n):
+            if r.scheme == 'dlg':
+                out.append((L[a], deep_chord(L, r, a, True), True))
+            else:
+                p, t = ref_uniform(L, r.D, a, True)
+                out.append((p, t, False))
+        return out
+    if n == 2:
+        t = tuple(L[1][k] - L[0][k] for k in range(dim))
+        return [(L[0], t, False), (L[1], t, False)]
+    if r.ends == 'clamped':
+        return [ref_clamped(L, r.D, a) + (False,) for a in range(r.nanchors(n) if n > r.D else n)]
+    if r.scheme == 'dlg':
+        return [(L[a], deep_chord(L, r, a, False), True) for a in range(n)]
+    # none / replace
+    n2 = len(refine1([0] * n, 'bspline', r.D, False, r.ends))
+    if n2 < n:
+        # shrinking: follow the exact refinement until it stops changing size
+        return ref_limit(r, refine_pts(L, 'bspline', r.D, False, r.ends))
+    if n2 == n and r.ends == 'replace':
+        pts = static_fixed_point(L, r)
+        uniq = []
+        for p in pts:
+            if p not in uniq:
+                uniq.append(p)
+        out = []
+        for k, p in enumerate(uniq):
+            a, b = uniq[max(k - 1, 0)], uniq[min(k + 1, len(uniq) - 1)]
+            out.append((p, tuple(y - x for x, y in zip(a, b)), False))
+        return out
+    out = []
+    A = r.nanchors(n)
+    h = (r.D - 1) // 2 if r.D % 2 else r.D // 2 - 1
+    for a in range(A):
+        full = h <= a <= A - 1 - h
+        if r.ends == 'replace':
+            if a == 0 or a == A - 1:
+                v = 0 if a == 0 else n - 1
+                if r.D == 1:
+                    t = tuple(L[1][k] - L[0][k] for k in range(dim)) if a == 0 else \
+                        tuple(L[-1][k] - L[-2][k] for k in range(dim))
+                    out.append((L[v], t, False))
+                else:
+                    out.append((L[v], deep_chord(L, r, v, False), True))
+                continue
+            if not (h + 1 <= a <= A - 2 - h):
+                continue
+        elif not full:
+            continue
+        p, t = ref_uniform(L, r.D, a, False)
+        if r.D == 1 and r.ends == 'none' and a in (0, A - 1):
+            t = tuple(L[1][k] - L[0][k] for k in range(dim)) if a == 0 else \
+                tuple(L[-1][k] - L[-2][k] for k in range(dim))
+        out.append((p, t, False))
+    return out
+
+
+def fmt_fr(v):
+    v = Fr(v)
+    return str(v.numerator) if v.denominator == 1 else '%d/%d' % (v.numerator, v.denominator)
+
+
+def fmt_dec(t):
+    nrm = math.sqrt(sum(x * x for x in t))
+    if nrm == 0:
+        return ['0'] * len(t)
+    return ['%.12g' % (x / nrm) for x in t]
+
+
+VECTOR_CASES = (
+    [(('bspline', D, False, e), m, k, 2 + (m + k) % 2)
+     for D in (2, 3) for e in ('none', 'replace', 'clamped') for m in (2, 3, 4, 5, 7) for k in range(4)] +
+    [(('dlg', 0, False, None), m, k, 2 + (m + k) % 2) for m in (2, 3, 4, 5, 7) for k in range(4)] +
+    [(('dlg', 0, True, None), m, k, 2 + (m + k) % 2) for m in (3, 4, 5, 7) for k in range(4)] +
+    [(('bspline', D, True, None), m, k, 2 + (m + k + D) % 2) for D in (1, 4, 5, 7) for m in (3, 4, 7)
+     for k in range(4)])
+
+
+def write_vectors(outdir, rules, seed=20261122):
+    rng = random.Random(seed)
+    byname = {(r.scheme, r.D, r.closed, r.ends): r for r in rules}
+    os.makedirs(os.path.join(outdir, 'cases'), exist_ok=True)
+    ok = True
+    count = 0
+    worst = 0.0
+    for key, m, depth, dim in VECTOR_CASES:
+        r = byname[key]
+        P = rand_poly(rng, m, dim)
+        L = refine_pts([tuple(Fr(v) for v in p) for p in P], r.scheme, r.D, r.closed, r.ends, depth)
+        ref = ref_limit(r, L)
+        # cross-check against the tables (the kernel's path)
+        got = limit_outputs(tables_of(r), L)
+        if len(got) != len(ref):
+            print('VECTOR MISMATCH %s m=%d depth %d: %d outputs vs %d' % (r.name(), m, depth, len(got), len(ref)))
+            ok = False
+        else:
+            def canon(seq):
+                return [p for p in seq]
+            gp = [g[1] for g in got]
+            rp = [tuple(Fr(v) for v in x[0]) for x in ref]
+            if not (rot_equal(gp, rp) if r.closed else gp == rp):
+                print('VECTOR MISMATCH %s m=%d depth %d: positions differ' % (r.name(), m, depth))
+                ok = False
+            for g, x in zip(got, ref):
+                if (g[2] is None) != (x[1] is None):
+                    print('VECTOR MISMATCH %s m=%d depth %d: tangent presence' % (r.name(), m, depth))
+                    ok = False
+                elif g[2] is not None and not x[2]:
+                    if not exact_parallel(g[2], x[1]):
+                        print('VECTOR MISMATCH %s m=%d depth %d: exact tangent differs' % (r.name(), m, depth))
+                        ok = False
+                elif g[2] is not None:
+                    an = angle([float(v) for v in g[2]], [float(v) for v in x[1]])
+                    worst = max(worst, an)
+                    if not an < 1e-5:   # irrational masks are rounded to 2^-24
+                        print('VECTOR MISMATCH %s m=%d depth %d: tangent %.3g deg' % (r.name(), m, depth, an))
+                        ok = False
+        dec = any(x[2] for x in ref)
+        sname = 'dlg' if r.scheme == 'dlg' else ('chaikin' if r.D == 2 else 'bspline%d' % r.D)
+        ends = 'closed' if r.closed else (r.ends or 'open')
+        fn = 'limit_%s_%s_m%d_d%d.txt' % (sname, ends, m, depth)
+        lines = ['scheme %s' % ('dlg' if r.scheme == 'dlg' else ('chaikin' if r.D == 2 else 'bspline:%d' % r.D)),
+                 'ends %s' % (r.ends or 'clamped'), 'closed %d' % (1 if r.closed else 0),
+                 'depth %d' % depth, 'dim %d' % dim, 'limit 1']
+        if dec:
+            lines.append('tangent_decimal 1')
+        lines.append('input %d' % m)
+        lines += [' '.join(str(v) for v in p) for p in P]
+        lines.append('output %d' % len(ref))
+        for p, t, isdec in ref:
+            if t is None:
+                ts = ['0'] * dim
+            elif dec:
+                ts = fmt_dec([float(v) for v in t])
+            else:
+                ts = [fmt_fr(v) for v in t]
+            lines.append(' '.join(fmt_fr(v) for v in p) + '  ' + ' '.join(ts))
+        with open(os.path.join(outdir, 'cases', fn), 'w') as f:
+            f.write('\n'.join(lines) + '\n')
+        count += 1
+    print('wrote %d limit vectors to %s/cases; tables vs independent reference: worst tangent angle %.3g deg%s' % (
+        count, outdir, worst, '' if ok else ' -- MISMATCHES'))
+    return ok
 
 
 def main():
