@@ -2,3 +2,31 @@
 # counts) and, below, the cross-target fragment tests/targets/module.mk (the
 # top Makefile includes only */module.mk, one level deep).
 include tests/targets/module.mk
+
+BENCH_DIR := $(BUILD)/bench
+
+# ---- AVR cycle counts (simavr) ----------------------------------------------
+# The kernel for the ATmega328P twice (PK_AXES=2 for XY plotters, 3), then one
+# ELF per build, run by the libsimavr harness bench/avr_cycles.
+$(eval $(call tgt_fw_rule,avr-ax2,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=2))
+$(eval $(call tgt_fw_rule,avr-ax3,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=3))
+AVR_BENCH_FLAGS := $(TGT_FLAGS_avr) -Os -g -std=c11 -ffunction-sections -fdata-sections \
+                   -Ifirmware -Ihal -Ibench/avr -I/usr/include/simavr/avr
+$(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-ax%/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
+$(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
+	@mkdir -p $(@D)
+	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf
+
+AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf
+
+.PHONY: bench-avr
+bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS)
+	@echo "AVR ATmega328P @ 16 MHz under simavr: cycles per output point (one open stroke of 24 points;"
+	@echo "init + push + pull + finish, divided by the points produced)"
+	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes"
+	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR bench image (2 axes):"s" bytes"}'
