@@ -30,3 +30,27 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS)
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes"
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR bench image (2 axes):"s" bytes"}'
+
+# ---- host benchmarks against the double baseline and the npm peers -----------
+BENCH_CFLAGS := -std=c11 -O2 -g -Wall -Wextra -Werror -D_POSIX_C_SOURCE=200809L -Ifirmware -Ihal -Ibench
+$(BENCH_DIR)/bench_refine: bench/bench_refine.c bench/bench_common.h $(BUILD)/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(CC) $(BENCH_CFLAGS) -o $@ $< $(BUILD)/libplotkin_fw.a
+$(BENCH_DIR)/baseline_double: bench/baseline_double.c bench/bench_common.h
+	@mkdir -p $(@D)
+	$(CC) $(BENCH_CFLAGS) -o $@ $<
+
+# npm peers: installed under bench/ from the pinned bench/package.json only
+# (never a dependency of plotkin itself); bench/node_modules is git-ignored.
+bench/node_modules/.plotkin-stamp: bench/package.json
+	cd bench && npm install --no-audit --no-fund --loglevel=error
+	@touch $@
+
+BENCH_ARGS ?=
+.PHONY: bench-host
+bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_modules/.plotkin-stamp
+	@$(PYTHON3) bench/run_bench.py --build $(BENCH_DIR) $(BENCH_ARGS)
+
+bench:
+	@bash .ci/deps.sh base targets bench
+	@$(MAKE) --no-print-directory bench-host bench-avr
