@@ -124,8 +124,11 @@ struct pk_level {
 
 /** The limit/tangent stage (private). */
 struct pk_limit_stage {
-    pk_w8_t w[PK_LWIN][PK_AXES];
-    uint8_t n, pend, ph, st;
+    pk_w8_t w[PK_LWIN][PK_AXES]; /**< the last inputs, w[PK_LWIN-1] newest */
+    uint8_t n;      /**< inputs seen, saturating at 255 */
+    int8_t lag;     /**< newest input index minus the next anchor's index */
+    uint8_t a;      /**< index of the next anchor, saturating at 255 */
+    uint8_t st;     /**< LV_FIN when finished */
 };
 
 /** One stream. Caller-owned; its size is fixed at compile time. */
@@ -140,7 +143,9 @@ struct pk_refine {
     uint8_t close_i;       /**< closed: replay position */
     uint8_t pad_;
     uint32_t m;            /**< points pushed in this stroke (closed: bounded) */
-    uint32_t out_left;     /**< closed: outputs still to give (2^depth * m ...) */
+    uint32_t out_done;     /**< points delivered in this stroke (closed only needs it) */
+    uint32_t out_left;     /**< closed: outputs still to give (2^depth * m), else UINT32_MAX */
+    const void *lim_rule;  /**< limit stage: its mask table (pk_masks.h) */
     pk_w8_t in[PK_AXES];   /**< the input slot */
     pk_w8_t first[PK_CLOSE_MAX][PK_AXES]; /**< closed: the stroke's first points */
     struct pk_level lv[PK_MAX_DEPTH];
