@@ -674,10 +674,12 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
 
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)
 {
-    /* Every level releases at most 2 points per input in steady state, plus
-     * at most 2 more at a deferred end; a finish releases each level's tail
-     * (<= 4 points) refined by the levels below it. Bound both by
-     * 4 * 2^depth + 4 (checked empirically by tests/test_refine.c). */
+    /* In steady state every level turns one input into two outputs, so a push
+     * releases exactly 2^depth points (fewer while the stroke starts). A
+     * finish releases each level's tail: at most 4 points per level for open
+     * strokes (the clamped cubic's V, T', E, P), and for closed strokes the
+     * replayed first points, at most PK_CLOSE_MAX, each refined 2^depth-fold.
+     * Measured maxima are at or below these (tests/test_refine.c). */
     unsigned d = cfg->depth > PK_MAX_DEPTH ? PK_MAX_DEPTH : cfg->depth;
-    return (4u << d) + 4u;
+    return (cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d;
 }

@@ -195,9 +195,12 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out);
 void pk_refine_reset(struct pk_refine *r);
 
 /**
- * Upper bound on the points that pk_refine_pull can deliver between one
- * PK_NEED_INPUT and the next after a single push (steady state), and after
- * finish: a consumer with this much room never has to stop mid-push.
+ * Upper bound on the points pk_refine_pull can deliver between one
+ * PK_NEED_INPUT (or the start) and the next. After a push it is exactly
+ * 2^depth in steady state; after pk_refine_finish it is at most
+ * 4 * 2^depth for open strokes and (PK_CLOSE_MAX + 1) * 2^depth for closed
+ * ones. This returns the larger, so a consumer with this much room never has
+ * to stop mid-stroke (stopping anyway is always safe).
  */
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg);
 
