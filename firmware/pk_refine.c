@@ -96,8 +96,14 @@ static int32_t sat_inc8(uint8_t n) { return n < 255u ? n + 1 : 255; }
 
 static void pt_copy(pk_w8_t *dst, const pk_w8_t *src, unsigned dims)
 {
-    for (unsigned a = 0; a < dims; a++)
-        dst[a] = src[a];
+    dst[0] = src[0];
+    dst[1] = src[1];
+#if PK_AXES > 2
+    if (dims > 2u)
+        dst[2] = src[2];
+#else
+    (void)dims;
+#endif
 }
 
 /* Point P_x where x = (newest index) - back; back = 0 is the newest input. */
@@ -124,8 +130,14 @@ static void lv_mask(const struct pk_level *lv, unsigned dims, unsigned back0, co
 static void mix2(const pk_w8_t *A, const pk_w8_t *B, int32_t wa, int32_t wb, unsigned s,
                  unsigned dims, pk_w8_t *out)
 {
-    for (unsigned a = 0; a < dims; a++)
-        out[a] = pk_rshift_round32(wa * A[a] + wb * B[a], s);
+    out[0] = pk_rshift_round32(wa * A[0] + wb * B[0], s);
+    out[1] = pk_rshift_round32(wa * A[1] + wb * B[1], s);
+#if PK_AXES > 2
+    if (dims > 2u)
+        out[2] = pk_rshift_round32(wa * A[2] + wb * B[2], s);
+#else
+    (void)dims;
+#endif
 }
 
 /* ---- level: feed ------------------------------------------------------- */
@@ -145,7 +157,7 @@ static void lv_feed(const struct pk_refine *r, struct pk_level *lv, unsigned kin
                     const pk_w8_t *p)
 {
     unsigned dims = r->cfg.dims;
-    for (unsigned k = 0; k + 1u < PK_WIN; k++)
+    for (unsigned k = PK_WIN - r->win; k + 1u < PK_WIN; k++)
         pt_copy(lv->w[k], lv->w[k + 1u], dims);
     pt_copy(lv->w[PK_WIN - 1u], p, dims);
     lv->n = (uint8_t)sat_inc8(lv->n);
@@ -505,6 +517,8 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
     if (c.limit && pk_limit_setup(r) != PK_OK)
         return PK_ENOTSUP;
     r->nlev = (uint8_t)(c.depth + (c.limit ? 1u : 0u));
+    r->kind = (uint8_t)lv_kind_of(r);
+    r->win = (uint8_t)needed_window(r);
     r->out_left = UINT32_MAX;
     return PK_OK;
 }
@@ -568,13 +582,6 @@ static int st_exhausted(const struct pk_refine *r, int k)
     return (lv->st & LV_FIN) != 0u && lv->pend == 0u;
 }
 
-static int st_deferred(const struct pk_refine *r, int k)
-{
-    if ((unsigned)k == r->cfg.depth)
-        return 0; /* the limit stage decides from counts alone */
-    return (r->lv[k].st & LV_DEFER) != 0u;
-}
-
 static void st_take(struct pk_refine *r, int k, pk_w8_t *p)
 {
     if (k < 0) {
@@ -587,7 +594,7 @@ static void st_take(struct pk_refine *r, int k, pk_w8_t *p)
         }
         return;
     }
-    lv_emit(r, &r->lv[k], lv_kind_of(r), p);
+    lv_emit(r, &r->lv[k], r->kind, p);
 }
 
 static void st_feed(struct pk_refine *r, int k, const pk_w8_t *p)
@@ -595,12 +602,7 @@ static void st_feed(struct pk_refine *r, int k, const pk_w8_t *p)
     if ((unsigned)k == r->cfg.depth)
         pk_limit_feed(r, p);
     else
-        lv_feed(r, &r->lv[k], lv_kind_of(r), p);
-}
-
-static void st_more(struct pk_refine *r, int k)
-{
-    lv_more(r, &r->lv[k], lv_kind_of(r));
+        lv_feed(r, &r->lv[k], r->kind, p);
 }
 
 static void st_finish(struct pk_refine *r, int k)
@@ -608,29 +610,36 @@ static void st_finish(struct pk_refine *r, int k)
     if ((unsigned)k == r->cfg.depth)
         pk_limit_finish(r);
     else
-        lv_finish(r, &r->lv[k], lv_kind_of(r));
+        lv_finish(r, &r->lv[k], r->kind);
+}
+
+static int lv_ready(const struct pk_level *lv)
+{
+    return lv->pend != 0u && (lv->st & LV_DEFER) == 0u;
 }
 
 int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
 {
     const int top = (int)r->nlev - 1; /* -1: depth 0 without limit: pass through */
-    unsigned dims = r->cfg.dims;
 
     if (r->cfg.closed && r->out_left == 0u) {
         pk_refine_reset(r);
         return PK_END;
     }
-    /* Walk from the output end towards the input until some stage can act.
-     * Each step either moves one point one stage down, answers one stage's
-     * lookahead question, finishes one stage, or climbs one stage up, so the
-     * loop ends within O(depth) steps per point delivered. */
+    /* Walk from the output end towards the input until some stage can act,
+     * then carry points back down. Each step moves one point one stage down,
+     * answers one stage's lookahead question, finishes one stage, or climbs
+     * one stage up: O(depth) steps per point delivered at worst, O(1) on
+     * average (the last level gives 2 points for each point it takes). */
+    const int lim = r->cfg.limit ? (int)r->cfg.depth : -2;
     int k = top;
     for (;;) {
-        if (st_ready(r, k)) {
+        int ready = (k >= 0 && k != lim) ? lv_ready(&r->lv[k]) : st_ready(r, k);
+        if (ready) {
             if (k == top)
                 break;
-            if (k + 1 <= top && st_deferred(r, k + 1)) {
-                st_more(r, k + 1);
+            if (k + 1 != lim && (r->lv[k + 1].st & LV_DEFER) != 0u) {
+                lv_more(r, &r->lv[k + 1], r->kind);
             } else {
                 pk_w8_t p[PK_AXES];
                 st_take(r, k, p);
@@ -653,18 +662,18 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
         k--;
     }
 
-    /* Deliver one point from the top stage, converted to whole µm. */
-    for (unsigned a = 0; a < PK_AXES; a++) {
-        out->p[a] = 0;
-        out->t[a] = 0;
-    }
     if (top == (int)r->cfg.depth && r->cfg.limit) {
+        for (unsigned a = 0; a < PK_AXES; a++)
+            out->t[a] = 0;
+        out->p[PK_AXES - 1] = 0;
         pk_limit_emit(r, out);
     } else {
-        pk_w8_t p[PK_AXES];
+        pk_w8_t p[PK_AXES] = { 0 };
         st_take(r, top, p);
-        for (unsigned a = 0; a < dims; a++)
+        for (unsigned a = 0; a < PK_AXES; a++) {
             out->p[a] = pk_rshift_round32(p[a], PK_W8_SHIFT);
+            out->t[a] = 0;
+        }
     }
     r->out_done++;
     if (r->out_left != UINT32_MAX)
