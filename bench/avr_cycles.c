@@ -1,14 +1,18 @@
 /*
  * avr_cycles.c — exact cycle counts of AVR code under libsimavr.
  *
- *   avr_cycles PROGRAM.elf [TAG]
+ *   avr_cycles PROGRAM.elf [TAG [PROFILE-LABEL]]
  *
  * Loads an AVR ELF (MCU and clock from its .mmcu section, default
  * atmega328p at 16 MHz), runs it to the end (sleep with interrupts off) and
  * prints one row per measurement the program reports through the GPIOR
  * markers of bench/avr/avr_mark.h: label, cycles, items, cycles per item.
  * The counts come from simavr's cycle counter, which is exact for the AVR
- * core (no caches, fixed instruction timings). Host tool: libc and doubles.
+ * core (no caches, fixed instruction timings). With PROFILE-LABEL, the
+ * cycles of that measurement are also attributed to the functions whose
+ * instructions spent them (exact: the simulator is stepped one instruction
+ * at a time; symbols from `avr-nm`), printed as a flat profile.
+ * Host tool: libc and doubles.
  */
 #include <stdarg.h>
 #include <stdint.h>
@@ -31,6 +35,9 @@ static void quiet_logger(struct avr_t *avr, const int level, const char *format,
 
 struct mark_state {
     const char *tag;
+    const char *profile;   /* label to profile, or NULL */
+    int measuring;         /* between start and stop of the profiled label */
+    uint64_t *hist;        /* cycles per flash word while measuring */
     char label[64];
     size_t len;
     avr_cycle_count_t t0, t1;
@@ -44,11 +51,22 @@ static void on_gpior0(struct avr_t *avr, avr_io_addr_t addr, uint8_t v, void *pa
     avr->data[addr] = v;
     if (v == 1) {
         m->t0 = avr->cycle;
+        m->measuring = m->profile && !strcmp(m->label, m->profile);
     } else if (v == 2) {
         m->t1 = avr->cycle;
+        m->measuring = 0;
+    } else if (v == 3 && m->label[0] == '=') {
+        printf("%-8s %-22s %12s %8lu bytes\n", m->tag, m->label + 2, "", (unsigned long)m->items);
+        m->len = 0;
+        m->label[0] = '\0';
+        m->items = 0;
     } else if (v == 3) {
         uint64_t cyc = (uint64_t)(m->t1 - m->t0);
-        printf("%-8s %-22s %12llu %8lu %12.1f\n", m->tag, m->label, (unsigned long long)cyc,
+        if (m->items == 0)
+            printf("%-8s %-22s init failed or no output (%llu cycles)\n", m->tag, m->label,
+                   (unsigned long long)cyc);
+        else
+            printf("%-8s %-22s %12llu %8lu %12.1f\n", m->tag, m->label, (unsigned long long)cyc,
                (unsigned long)m->items, m->items ? (double)cyc / m->items : 0.0);
         m->rows++;
         m->len = 0;
@@ -72,6 +90,55 @@ static void on_gpior2(struct avr_t *avr, avr_io_addr_t addr, uint8_t v, void *pa
     struct mark_state *m = param;
     avr->data[addr] = v;
     m->items = (m->items << 8) | v;
+}
+
+struct sym { unsigned long addr, size; char name[64]; };
+
+static void print_profile(const char *elf, const char *label, const uint64_t *hist, size_t words)
+{
+    char cmd[512];
+    struct sym syms[512];
+    size_t ns = 0;
+    snprintf(cmd, sizeof cmd, "avr-nm -n -S --defined-only '%s'", elf);
+    FILE *p = popen(cmd, "r");
+    char line[256];
+    while (p && ns < 512 && fgets(line, sizeof line, p)) {
+        char type;
+        struct sym *y = &syms[ns];
+        if (sscanf(line, "%lx %lx %c %63s", &y->addr, &y->size, &type, y->name) == 4 &&
+            (type == 't' || type == 'T') && y->addr < 0x800000)
+            ns++;
+    }
+    if (p)
+        pclose(p);
+    uint64_t total = 0, per[512] = { 0 }, other = 0;
+    for (size_t w = 0; w < words; w++) {
+        if (!hist[w])
+            continue;
+        total += hist[w];
+        size_t k;
+        for (k = 0; k < ns; k++)
+            if (2 * w >= syms[k].addr && 2 * w < syms[k].addr + syms[k].size)
+                break;
+        if (k < ns)
+            per[k] += hist[w];
+        else
+            other += hist[w];
+    }
+    printf("flat profile of \"%s\" (%llu cycles):\n", label, (unsigned long long)total);
+    for (int shown = 0; shown < 12; shown++) {
+        size_t best = ns;
+        for (size_t k = 0; k < ns; k++)
+            if (per[k] && (best == ns || per[k] > per[best]))
+                best = k;
+        if (best == ns)
+            break;
+        printf("  %5.1f%%  %10llu  %s\n", 100.0 * per[best] / total, (unsigned long long)per[best],
+               syms[best].name);
+        per[best] = 0;
+    }
+    if (other)
+        printf("  %5.1f%%  %10llu  (no symbol)\n", 100.0 * other / total, (unsigned long long)other);
 }
 
 int main(int argc, char **argv)
@@ -101,17 +168,30 @@ int main(int argc, char **argv)
     struct mark_state m;
     memset(&m, 0, sizeof m);
     m.tag = argc > 2 ? argv[2] : fw.mmcu;
+    m.profile = argc > 3 ? argv[3] : NULL;
+    static uint64_t hist[32768]; /* 64 KB of flash, in words */
+    m.hist = hist;
     avr_register_io_write(avr, GPIOR0_ADDR, on_gpior0, &m);
     avr_register_io_write(avr, GPIOR1_ADDR, on_gpior1, &m);
     avr_register_io_write(avr, GPIOR2_ADDR, on_gpior2, &m);
     int state = cpu_Running;
-    while (state != cpu_Done && state != cpu_Crashed)
+    /* A program that overflows its stack usually loops forever: give up
+     * after max_cycles (~60 s of the 16 MHz part). */
+    const avr_cycle_count_t max_cycles = 1000000000ull;
+    while (state != cpu_Done && state != cpu_Crashed && avr->cycle < max_cycles) {
+        avr_flashaddr_t pc = avr->pc;
+        avr_cycle_count_t c0 = avr->cycle;
         state = avr_run(avr);
-    if (state == cpu_Crashed || m.rows == 0) {
+        if (m.measuring && pc / 2 < 32768)
+            hist[pc / 2] += avr->cycle - c0;
+    }
+    if (state != cpu_Done || m.rows == 0) {
         fprintf(stderr, "avr_cycles: %s %s after %llu cycles, %d measurement(s)\n", argv[1],
-                state == cpu_Crashed ? "crashed" : "ended", (unsigned long long)avr->cycle, m.rows);
+                state == cpu_Crashed ? "crashed" : state == cpu_Done ? "ended" : "did not end (stack overflow?)", (unsigned long long)avr->cycle, m.rows);
         return 1;
     }
+    if (m.profile)
+        print_profile(argv[1], m.profile, hist, 32768);
     avr_terminate(avr);
     return 0;
 }

@@ -22,13 +22,15 @@ $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 
 AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf
 
+# The measurement whose cycles are broken down by function (3-axis build).
+AVR_PROFILE ?= chaikin d4
 .PHONY: bench-avr
 bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS)
 	@echo "AVR ATmega328P @ 16 MHz under simavr: cycles per output point (one open stroke of 24 points;"
 	@echo "init + push + pull + finish, divided by the points produced)"
 	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
-	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes" "$(AVR_PROFILE)"
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR bench image (2 axes):"s" bytes"}'
 
 # ---- host benchmarks against the double baseline and the npm peers -----------

@@ -16,6 +16,7 @@ void th_write(const char *s);
 static volatile pk_um_t pk_img_in[PK_AXES];
 static volatile pk_um_t pk_img_sink;
 static volatile uint8_t pk_img_depth = 4;
+static volatile uint8_t pk_img_closed = 1; /* open Chaikin+limit: PK_ENOTSUP in this kernel version */
 
 int th_main(int argc, char **argv)
 {
@@ -28,6 +29,7 @@ int th_main(int argc, char **argv)
     cfg.degree = 2;
     cfg.depth = pk_img_depth;
     cfg.limit = 1;
+    cfg.closed = pk_img_closed;
     if (pk_refine_init(&r, &cfg) != PK_OK)
         return 1;
     for (int i = 0; i < 16; i++) {
