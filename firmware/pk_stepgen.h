@@ -54,7 +54,7 @@ struct pk_sg_chunk {
     int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
     uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
     uint32_t events;           /**< STEPS first: events of the block */
-    uint32_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
+    uint64_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
     pk_um_s_t v_um_s;          /**< speed at the chunk's end (reports) */
 };
 
@@ -93,7 +93,9 @@ struct pk_stepgen {
     uint32_t steps[PK_AXES];
     uint32_t events;
     int32_t acc[PK_AXES];      /**< Bresenham accumulators */
-    atomic_bool busy;          /**< ISR: true while it has work (MAIN reads) */
+    atomic_bool busy;          /**< true from timer_start until the ISR returns 0 */
+    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
     atomic_int alarm;          /**< enum pk_alarm latched by the ISR (MAIN reads) */
     atomic_uint v_um_s;        /**< speed of the chunk executing (MAIN reads) */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
