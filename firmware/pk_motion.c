@@ -400,8 +400,9 @@ bool pk_machine_reset(struct pk_machine *m)
     bool busy = atomic_load(&m->sg.busy);
     bool interrupted = !alarmed(m) && (busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
                                        || m->sg.prep_active || pk_stroke_is_open(&m->stroke));
-    if (m->sg.phase == PK_SGP_PULSE && !alarmed(m))
-        (void)pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
+    /* leave every step line low (also after an alarm: a line whose lowering
+     * failed must not swallow the next edge) */
+    (void)pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
     pk_sg_flush(&m->sg);
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
