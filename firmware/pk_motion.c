@@ -217,6 +217,8 @@ static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_s_t 
     int r = pk_planner_add_line(&m->planner, &m->mq, d_um, d_steps, feed);
     if (r < 0)
         return false;
+    if (r > 0)
+        m->lines_planned++;
     memcpy(m->target_um, p, sizeof m->target_um);
     memcpy(m->target_steps, st, sizeof m->target_steps);
     return true;
@@ -461,6 +463,8 @@ uint32_t pk_machine_queue_fill(const struct pk_machine *m)
         n++;
     return n;
 }
+
+uint32_t pk_machine_lines_planned(const struct pk_machine *m) { return m->lines_planned; }
 
 pk_um_min_t pk_machine_speed(const struct pk_machine *m)
 {

@@ -166,6 +166,7 @@ struct pk_machine {
     pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
     pk_um_t target_um[PK_AXES];          /**< last requested position, µm (MAIN) */
     pk_um_s_t stroke_feed;               /**< feed of the open stroke, µm/s (MAIN) */
+    uint32_t lines_planned;              /**< line blocks planned since init (MAIN) */
     bool hold_req;                       /**< feed hold requested (MAIN) */
 };
 
@@ -226,7 +227,9 @@ uint32_t pk_machine_room(const struct pk_machine *m);
  * Main-loop work: take requests from the FIFO, feed strokes through the
  * kernel, pull refined points into the planner while the motion queue has
  * room, replan, prepare step chunks, and arm the HAL timer when there is motion
- * to run (timer_start with pk_machine_timer_cb and m). Bounded work per call;
+ * to run (timer_start with pk_machine_timer_cb and m). timer_start may come
+ * right after the callback returned 0, before a threaded backend has acted on
+ * that 0: the backend must then keep the new arming. Bounded work per call;
  * call it often (at least every millisecond of motion the chunk buffer holds,
  * see PK_SG_CHUNKS). Harmless in ALARM (does nothing).
  * Calling context: MAIN.
@@ -277,6 +280,10 @@ enum pk_alarm pk_machine_alarm(const struct pk_machine *m);
 /** Planned blocks in the motion queue (including the one executing) and its
  *  capacity PK_MQ_CAP. MAIN. */
 uint32_t pk_machine_queue_fill(const struct pk_machine *m);
+
+/** Straight segments (line blocks with steps) planned since init: what the
+ *  smoothing policy turned the program into. MAIN. */
+uint32_t pk_machine_lines_planned(const struct pk_machine *m);
 
 /** Path speed of the chunk being executed, µm/min (0 when stopped). MAIN. */
 pk_um_min_t pk_machine_speed(const struct pk_machine *m);
