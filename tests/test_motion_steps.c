@@ -114,6 +114,37 @@ static void test_straight_moves_end_exactly_at_the_commanded_step(void)
     }
 }
 
+static double worst_rate_ratio(const struct pk_rec *r, unsigned axis, double limit, unsigned k);
+
+static void test_three_axes_end_exactly_too(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    c.axes = 3;
+    c.steps_per_mm_q16[2] = spmm(400.0);
+    c.max_rate[2] = 600000;
+    c.accel[2] = 200000;
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_op ops[3];
+    ops[0] = feed(3000, 4000, 3000000);
+    ops[0].p[2] = -1500;
+    ops[1] = feed(-2000, 1000, 3000000);
+    ops[1].p[2] = 2345;
+    ops[2] = op_of(MR_RAPID, 0);
+    ops[2].p[0] = 10;
+    ops[2].p[1] = 20;
+    ops[2].p[2] = 30;
+    struct pk_mrun_result res = pk_mrun(&M, &R, ops, 3, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    for (unsigned i = 0; i < 3; i++) {
+        TH_EXPECT_EQ(p[i], oracle_steps(ops[2].p[i], c.steps_per_mm_q16[i]));
+        TH_EXPECT_EQ(edge_sum(&R, i, NULL), p[i]);
+    }
+    /* Z never ran faster than its own max rate (10 mm/s at 400 steps/mm) */
+    TH_EXPECT(worst_rate_ratio(&R, 2, 10.0 * 400.0, 16) <= 1.0);
+}
+
 static size_t arc_ops(struct pk_mrun_op *ops, unsigned nseg, double r_um, double turns, uint32_t f)
 {
     /* circle through the origin, centre (r, 0), starting at angle pi */
@@ -593,6 +624,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_straight_moves_end_exactly_at_the_commanded_step),
         TH_CASE(test_polyline_arc_ends_exactly_and_emits_no_extra_steps),
+        TH_CASE(test_three_axes_end_exactly_too),
         TH_CASE(test_axis_speeds_never_exceed_their_max_rate_or_the_feed),
         TH_CASE(test_acceleration_between_step_intervals_stays_within_the_limit),
         TH_CASE(test_junction_speed_limit_matches_the_junction_deviation_formula),
