@@ -78,7 +78,8 @@ enum pk_motion_status {
     PK_MOTION_ERANGE = -21, /**< a value outside its documented range; nothing changed */
     PK_MOTION_EINVAL = -22, /**< bad configuration (init / set_smoothing) */
     PK_MOTION_EALARM = -23, /**< the machine is in ALARM: reset first; nothing changed */
-    PK_MOTION_EHAL = -24    /**< init: the HAL failed pk_hal_check() or a write failed */
+    PK_MOTION_EHAL = -24,   /**< init: the HAL failed pk_hal_check() or a write failed */
+    PK_MOTION_EBUSY = -25   /**< configure: the machine is not idle; nothing changed */
 };
 
 /** Machine state as reported to the user (maps onto Grbl's Idle/Run/Hold/Alarm). */
@@ -184,6 +185,19 @@ struct pk_machine {
  */
 int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
                     const struct pk_hal *hal);
+
+/**
+ * Change the settings of an initialised machine without losing its position
+ * (Grbl's $-settings): validated like init; the step position is kept (the
+ * µm position follows the new steps/mm, as in Grbl); the pins are not
+ * touched. Axes newly enabled by cfg->axes start at 0 steps.
+ * @retval PK_MOTION_OK      applied
+ * @retval PK_MOTION_EINVAL  a setting is out of range; nothing changed
+ * @retval PK_MOTION_EBUSY   not IDLE or ALARM (motion, queue or requests
+ *                           pending); nothing changed
+ * Calling context: MAIN.
+ */
+int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
 
 /**
  * Request a straight move to an absolute target (µm, axes beyond cfg.axes

@@ -588,6 +588,46 @@ static void test_a_full_request_fifo_refuses_without_losing_anything(void)
     TH_EXPECT_EQ(s[0], oracle_steps((pk_um_t)(1000 * PK_MACHINE_INQ), c.steps_per_mm_q16[0]));
 }
 
+static void test_new_settings_keep_the_step_position(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_op op = feed(10000, -5000, 3000000);
+    struct pk_mrun_result res = pk_mrun(&M, &R, &op, 1, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    long y0 = oracle_steps(-5000, c.steps_per_mm_q16[1]);
+    /* refused while moving, and for a bad value, without side effects */
+    pk_um_t far[PK_AXES] = { 50000, 0 };
+    TH_ASSERT_EQ(pk_machine_move(&M, far, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    pk_machine_poll(&M);
+    struct pk_motion_cfg c2 = c;
+    c2.steps_per_mm_q16[0] = spmm(160.0);
+    TH_EXPECT_EQ(pk_machine_configure(&M, &c2), PK_MOTION_EBUSY);
+    TH_EXPECT(pk_machine_reset(&M));
+    pk_machine_position_steps(&M, p);
+    long x_now = p[0];
+    struct pk_motion_cfg bad = c2;
+    bad.accel[0] = 0;
+    TH_EXPECT_EQ(pk_machine_configure(&M, &bad), PK_MOTION_EINVAL);
+    TH_ASSERT_EQ(pk_machine_configure(&M, &c2), PK_MOTION_OK);
+    pk_machine_position_steps(&M, p);
+    TH_EXPECT_EQ(p[0], x_now);
+    TH_EXPECT_EQ(p[1], y0);
+    pk_um_t um[PK_AXES];
+    pk_machine_position_um(&M, um);
+    TH_EXPECT_EQ(um[0], lround(x_now * 1000.0 / 160.0));
+    /* and the next move lands on the new scale exactly */
+    op = feed(10000, 0, 3000000);
+    res = pk_mrun(&M, &R, &op, 1, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_machine_position_steps(&M, p);
+    TH_EXPECT_EQ(p[0], 1600);
+    TH_EXPECT_EQ(p[1], 0);
+    TH_EXPECT_EQ(edge_sum(&R, 0, NULL), 1600);
+}
+
 static void test_pen_changes_switch_the_tool_output_at_a_standstill(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -639,6 +679,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_reset_mid_move_reports_the_interruption_and_keeps_the_real_position),
         TH_CASE(test_a_full_request_fifo_refuses_without_losing_anything),
         TH_CASE(test_pen_changes_switch_the_tool_output_at_a_standstill),
+        TH_CASE(test_new_settings_keep_the_step_position),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);
