@@ -441,6 +441,23 @@ static void test_a_long_full_queue_changes_nothing_in_the_output(void)
     TH_EXPECT_EQ(diff, 0);
 }
 
+static void test_a_late_main_loop_delays_steps_but_loses_none(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    static struct pk_mrun_op ops[200];
+    size_t n = arc_ops(ops, 120, 10000.0, 0.9, 6000000);
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_opts late = { .poll_ticks = 80000 }; /* 80 ms between polls */
+    struct pk_mrun_result res = pk_mrun(&M, &R, ops, n, &late);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    for (int i = 0; i < 2; i++) {
+        TH_EXPECT_EQ(p[i], oracle_steps(ops[n - 1].p[i], c.steps_per_mm_q16[i]));
+        TH_EXPECT_EQ(edge_sum(&R, (unsigned)i, NULL), p[i]);
+    }
+}
+
 static void test_two_machines_side_by_side_do_not_share_state(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -673,6 +690,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_failing_step_write_stops_with_an_alarm_and_the_position_counts_real_pulses),
         TH_CASE(test_a_failing_direction_write_stops_before_any_step_in_the_wrong_direction),
         TH_CASE(test_a_long_full_queue_changes_nothing_in_the_output),
+        TH_CASE(test_a_late_main_loop_delays_steps_but_loses_none),
         TH_CASE(test_two_machines_side_by_side_do_not_share_state),
         TH_CASE(test_feed_hold_decelerates_within_the_limit_and_resume_finishes_exactly),
         TH_CASE(test_hold_reports_holding_then_hold_and_keeps_the_position),
