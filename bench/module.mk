@@ -1,6 +1,9 @@
-# bench/module.mk — `make bench` (host benchmarks against the peers, AVR cycle
-# counts) and, below, the cross-target fragment tests/targets/module.mk (the
-# top Makefile includes only */module.mk, one level deep).
+# bench/module.mk — benchmark programs (print tables; never pass/fail), and the
+# cross-target fragment tests/targets/module.mk (the top Makefile includes only
+# */module.mk, one level deep).
+#   make bench         host benchmarks against the peers, AVR cycle counts, motion time
+#   make bench-host    kernel vs double baseline vs npm peers (bench/run_bench.py)
+#   make bench-avr     exact ATmega328P cycles under simavr (bench/avr_cycles.c)
 include tests/targets/module.mk
 
 BENCH_DIR := $(BUILD)/bench
@@ -56,3 +59,17 @@ bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_mo
 bench:
 	@bash .ci/deps.sh base targets bench
 	@$(MAKE) --no-print-directory bench-host bench-avr
+
+# bench/module.mk — benchmark programs (print tables; never pass/fail).
+#   make bench-motion   total motion time: smoothing off vs tolerance vs an ideal trapezoid
+BENCH_MOTION := $(BUILD)/bench/motion_time
+
+$(BENCH_MOTION): bench/motion_time.c $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_COMMON) $(WARN) $(OPT) -o $@ $< $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a $(HOST_LIBS)
+
+.PHONY: bench-motion
+bench-motion: $(BENCH_MOTION)
+	@$(BENCH_MOTION)
+
+bench: bench-motion

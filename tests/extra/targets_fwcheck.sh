@@ -42,11 +42,11 @@ for t in m0plus m4 avr; do
   check "$t" HEAP 1 "heap allocator: malloc"
   check "$t" STDIO 1 "stdio"
   check "$t" STATIC 1 "mutable static storage"
-  check "$t" STEP_DIVIDE 1 "step path calls .*fwc_step -> fwc_helper" --step-func fwc_step
+  check "$t" STEP_DIVIDE 1 "step path calls __.*: fwc_step -> fwc_helper" --step-func fwc_step
   check "$t" CLEAN 1 "step-path function fwc_stepper not found" --step-func fwc_stepper
 done
 check m0plus FLOAT 1 "floating point (soft-float helper or libm): __aeabi_f"
-check m4 FLOAT 1 "FPU instruction"
+check m4 FLOAT 1 "floating-point instruction: .*vmul"
 check avr FLOAT 1 "floating point (soft-float helper or libm): __"
 echo "$pass passed, $fail failed"
 [[ $fail -eq 0 ]]

@@ -12,12 +12,16 @@ them
     (printf family, puts, ...),
   * references a soft-float helper (__aeabi_f*/__aeabi_d* on Arm, __addsf3,
     __mulsf3, __fixsfsi, ... on AVR) or a libm function,
-  * contains an FPU instruction (targets built with a hardware FPU: any
-    v* mnemonic in Thumb code on a Cortex-M4 is a VFP instruction),
+  * contains a floating-point instruction (targets built with a hardware FPU:
+    any v* mnemonic in Thumb code on a Cortex-M4 is a VFP instruction). GCC
+    also uses the FPU registers as scratch for 64-bit integer moves (vldr,
+    vstr, vpush, vpop, vmov): those are not float operations and are only
+    noted (they need the FPU enabled, and cost lazy stacking in an ISR;
+    -mgeneral-regs-only removes them),
   * owns mutable static storage (.data/.bss: the core keeps its state in
     caller-owned context structs),
   * or, for the step path (objects given with --step-obj, functions given with
-    --step-func, followed through the calls they make inside their object),
+    --step-func, followed through their direct calls across the objects),
     references a software divide helper (__aeabi_idiv, __aeabi_uldivmod,
     __divmodsi4, __udivdi3, ...).
 
@@ -49,6 +53,8 @@ DIVIDE = re.compile(r'^__aeabi_(u?idiv(mod)?|u?ldivmod)$|^__(u?div|u?mod)[qhsdt]
                     r'|^__u?divmod[qhsdt]i4$|^__udivmoddi4$|^__gnu_u?ldivmod_helper$')
 # A Thumb-2 FPU instruction line in `objdump -d`: "  1c:\tee07 0a90 \tvmov\ts14, r0".
 FPU_INSN = re.compile(r'^\s*[0-9a-f]+:\s+[0-9a-f ]+\s+(v[a-z0-9.]+)\b')
+FPU_MOVES = {'vldr', 'vstr', 'vpush', 'vpop', 'vmov', 'vldm', 'vstm', 'vldmia', 'vstmia', 'vldmdb',
+             'vstmdb', 'vmrs', 'vmsr'}
 
 
 def run(cmd):
@@ -95,26 +101,43 @@ def relocs_by_section(prefix, obj):
     return res
 
 
-def step_closure(prefix, obj, roots):
-    """Walk the calls from the root functions inside one object.
+def text_sections(prefix, obj):
+    return {n for n in sections(prefix, obj) if n.startswith('.text.')}
+
+
+def global_functions(prefix, obj):
+    out = run([prefix + 'nm', '--defined-only', '-g', obj])
+    return {ln.split()[-1] for ln in out.splitlines() if len(ln.split()) == 3 and ln.split()[1] in 'TW'}
+
+
+def step_closure(prefix, objs, roots):
+    """Walk the direct calls from the root functions, across the objects of
+    one target (static functions stay inside their object; calls through
+    function pointers, e.g. the HAL ops, cannot be followed).
     Returns ({external symbol: call chain}, [roots not found])."""
-    rel = relocs_by_section(prefix, obj)
-    seen, ext, missing = set(), {}, []
-    stack = []
+    rel = {o: relocs_by_section(prefix, o) for o in objs}
+    secs = {o: text_sections(prefix, o) for o in objs}
+    owner = {}
+    for o in objs:
+        for fn in global_functions(prefix, o):
+            owner.setdefault(fn, o)
+    seen, ext, missing, stack = set(), {}, [], []
     for r in roots:
-        if '.text.' + r in rel or '.text.' + r in sections(prefix, obj):
-            stack.append((r, [r]))
+        if r in owner:
+            stack.append((owner[r], r, [r]))
         else:
             missing.append(r)
     while stack:
-        fn, chain = stack.pop()
-        if fn in seen:
+        obj, fn, chain = stack.pop()
+        if (obj, fn) in seen:
             continue
-        seen.add(fn)
-        for tgt in rel.get('.text.' + fn, []):
+        seen.add((obj, fn))
+        for tgt in rel[obj].get('.text.' + fn, []):
             name = tgt[len('.text.'):] if tgt.startswith('.text.') else tgt
-            if '.text.' + name in rel or '.text.' + name in sections(prefix, obj):
-                stack.append((name, chain + [name]))
+            if '.text.' + name in secs[obj]:
+                stack.append((obj, name, chain + [name]))
+            elif name in owner:
+                stack.append((owner[name], name, chain + [name]))
             else:
                 ext.setdefault(name, chain + [name])
     return ext, missing
@@ -139,7 +162,7 @@ def main(argv):
         else:
             print('fwcheck: unknown argument ' + a, file=sys.stderr)
             return 2
-    bad = []
+    bad, notes = [], []
     table = []  # (target, object, text, rodata, data, bss)
     for name, prefix, fpu, objs in targets:
         for obj in objs:
@@ -150,10 +173,16 @@ def main(argv):
                     if rx.match(sym):
                         bad.append('%s %s: references %s: %s' % (name, base, what, sym))
             if fpu:
+                moves = 0
                 for ln in run([prefix + 'objdump', '-d', obj]).splitlines():
                     m = FPU_INSN.match(ln)
-                    if m:
-                        bad.append('%s %s: FPU instruction: %s' % (name, base, ln.strip()))
+                    if m and m.group(1).split('.')[0] in FPU_MOVES:
+                        moves += 1
+                    elif m:
+                        bad.append('%s %s: floating-point instruction: %s' % (name, base, ln.strip()))
+                if moves:
+                    notes.append('%s %s: %d FPU-register moves (64-bit integer data through d-registers;'
+                                 ' no float arithmetic)' % (name, base, moves))
             secs = sections(prefix, obj)
             sz = {'text': 0, 'rodata': 0, 'data': 0, 'bss': 0}
             for s, n in secs.items():
@@ -168,23 +197,17 @@ def main(argv):
                 for sym in undefined(prefix, obj):
                     if DIVIDE.match(sym):
                         bad.append('%s %s: software divide in a step-path object: %s' % (name, base, sym))
-            if step_funcs:
-                ext, _ = step_closure(prefix, obj, step_funcs)
-                for sym, chain in sorted(ext.items()):
-                    if DIVIDE.match(sym) or FLOAT.match(sym):
-                        bad.append('%s %s: step path calls %s: %s' % (name, base, sym, ' -> '.join(chain)))
         for so in step_objs:
             if not any(os.path.basename(o) == so for o in objs):
                 bad.append('%s: step-path object %s not built (renamed? update TARGETS_STEP_OBJS)' % (name, so))
         if step_funcs:
-            found = set()
-            for obj in objs:
-                _, missing = step_closure(prefix, obj, step_funcs)
-                found |= set(step_funcs) - set(missing)
-            for fn in step_funcs:
-                if fn not in found:
-                    bad.append('%s: step-path function %s not found (renamed? update TARGETS_STEP_FUNCS)'
-                               % (name, fn))
+            ext, missing = step_closure(prefix, objs, step_funcs)
+            for sym, chain in sorted(ext.items()):
+                if DIVIDE.match(sym) or FLOAT.match(sym):
+                    bad.append('%s: step path calls %s: %s' % (name, sym, ' -> '.join(chain)))
+            for fn in missing:
+                bad.append('%s: step-path function %s not found (renamed? update TARGETS_STEP_FUNCS)'
+                           % (name, fn))
 
     print('Firmware size per object (bytes; flash = text+rodata, RAM = data+bss; before --gc-sections)')
     print('%-10s %-24s %7s %7s %7s %7s %7s' % ('target', 'object', 'text', 'rodata', 'flash', 'RAM', ''))
@@ -202,6 +225,8 @@ def main(argv):
               % (' '.join(step_objs) or '-', ' '.join(step_funcs) or '-'))
     else:
         print('step path: none declared yet (TARGETS_STEP_OBJS / TARGETS_STEP_FUNCS empty)')
+    for n in notes:
+        print('note: ' + n)
     for b in bad:
         print('FWCHECK FAIL: ' + b)
     if bad:

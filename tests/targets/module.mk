@@ -21,12 +21,16 @@ ARM_CC     := $(ARM_PREFIX)gcc
 AVR_CC     := $(AVR_PREFIX)gcc
 PYTHON3    ?= /usr/bin/python3
 
-# Step path: objects (basename, e.g. pk_step.o) and functions (e.g. the timer
-# callback) that must not call a software divide. Empty until `motion` lands;
-# fwcheck fails if a name listed here does not exist, so a rename cannot
-# silently switch the check off.
+# Step path: objects (basename, e.g. pk_step.o) and functions that must not
+# call a software divide (or float). The functions are followed through their
+# direct calls across all firmware objects: the step timer callback
+# pk_machine_timer_cb (pk_motion.c) and the step generator's ISR work
+# pk_sg_isr (pk_stepgen.c), listed as soon as their files exist. fwcheck fails
+# if a listed name does not exist, so a rename cannot silently switch the
+# check off.
 TARGETS_STEP_OBJS  ?=
-TARGETS_STEP_FUNCS ?=
+TARGETS_STEP_FUNCS ?= $(if $(wildcard firmware/pk_motion.c),pk_machine_timer_cb) \
+                      $(if $(wildcard firmware/pk_stepgen.c),pk_sg_isr)
 
 TGT_CPPFLAGS := -Ifirmware -Ihal
 TGT_OPT      := -Os -g -ffreestanding -ffunction-sections -fdata-sections -fno-common
