@@ -40,7 +40,9 @@ struct mark_state {
     uint64_t *hist;        /* cycles per flash word while measuring */
     char label[64];
     size_t len;
-    avr_cycle_count_t t0, t1;
+    avr_cycle_count_t t0;
+    uint64_t acc, worst;   /* cycles of the start/stop pairs, longest pair */
+    unsigned pairs;
     uint32_t items;
     int rows;
 };
@@ -53,21 +55,31 @@ static void on_gpior0(struct avr_t *avr, avr_io_addr_t addr, uint8_t v, void *pa
         m->t0 = avr->cycle;
         m->measuring = m->profile && !strcmp(m->label, m->profile);
     } else if (v == 2) {
-        m->t1 = avr->cycle;
+        uint64_t d = (uint64_t)(avr->cycle - m->t0);
+        m->acc += d;
+        m->worst = d > m->worst ? d : m->worst;
+        m->pairs++;
         m->measuring = 0;
     } else if (v == 3 && m->label[0] == '=') {
-        printf("%-8s %-22s %12s %8lu bytes\n", m->tag, m->label + 2, "", (unsigned long)m->items);
+        printf("%-8s %-30s %12lu\n", m->tag, m->label + 2, (unsigned long)m->items);
         m->len = 0;
         m->label[0] = '\0';
         m->items = 0;
     } else if (v == 3) {
-        uint64_t cyc = (uint64_t)(m->t1 - m->t0);
+        uint64_t cyc = m->acc;
         if (m->items == 0)
             printf("%-8s %-22s init failed or no output (%llu cycles)\n", m->tag, m->label,
                    (unsigned long long)cyc);
         else
-            printf("%-8s %-22s %12llu %8lu %12.1f\n", m->tag, m->label, (unsigned long long)cyc,
-               (unsigned long)m->items, m->items ? (double)cyc / m->items : 0.0);
+            printf("%-8s %-22s %12llu %8lu %12.1f", m->tag, m->label, (unsigned long long)cyc,
+                   (unsigned long)m->items, (double)cyc / m->items);
+        if (m->pairs > 1)
+            printf("   (%u calls, %.1f cycles/call, longest %llu)", m->pairs, (double)cyc / m->pairs,
+                   (unsigned long long)m->worst);
+        printf("\n");
+        m->acc = 0;
+        m->worst = 0;
+        m->pairs = 0;
         m->rows++;
         m->len = 0;
         m->label[0] = '\0';

@@ -23,7 +23,19 @@ $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)
 	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf
 
-AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf
+# The step callback: the whole firmware (motion core + kernel) with small
+# queues, on the ATmega1284P (same AVR core timings; the 328P lacks the RAM).
+AVR_STEP_DEFS := -DPK_AXES=2 -DPK_MAX_DEPTH=4 -DPK_WIN=4 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+                 -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=16 -DPK_STROKE_DEC=8 -DPK_MACHINE_INQ=4
+AVR_STEP_FLAGS := -mmcu=atmega1284p -DF_CPU=16000000UL $(AVR_STEP_DEFS)
+$(eval $(call tgt_fw_rule,avr1284-step,$(AVR_CC),$(AVR_STEP_FLAGS)))
+$(BENCH_DIR)/avr1284-step/avr_step_cycles.elf: bench/avr/avr_step_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr1284-step/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(AVR_CC) $(subst $(TGT_FLAGS_avr),,$(AVR_BENCH_FLAGS)) $(AVR_STEP_FLAGS) -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr1284-step/libplotkin_fw.a
+
+AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf \
+                  $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf
 
 # The measurement whose cycles are broken down by function (3-axis build).
 AVR_PROFILE ?= chaikin d4
@@ -34,6 +46,9 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS)
 	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes" "$(AVR_PROFILE)"
+	@echo "Step timer callback (pk_machine_timer_cb) per motor step, smoothing off, 2 axes, 80 steps/mm,"
+	@echo "3 feed moves at 3000 mm/min; ATmega1284P build (same core timings as the 328P)"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf "1284P"
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR bench image (2 axes):"s" bytes"}'
 
 # ---- host benchmarks against the double baseline and the npm peers -----------

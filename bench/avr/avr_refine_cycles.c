@@ -96,11 +96,11 @@ int main(void)
     uint8_t *q = &__heap_start;
     while (q <= (uint8_t *)RAMEND && *q == 0xA5)
         q++;
-    avr_mark_begin("= static RAM (.data+.bss)");
+    avr_mark_begin("= static RAM, bytes (.data+.bss)");
     avr_mark_end((uint32_t)(uint16_t)(&__heap_start - (uint8_t *)RAMSTART));
-    avr_mark_begin("= peak stack");
+    avr_mark_begin("= peak stack, bytes");
     avr_mark_end((uint32_t)(uint16_t)((uint8_t *)RAMEND + 1 - q));
-    avr_mark_begin("= never touched");
+    avr_mark_begin("= RAM never touched, bytes");
     avr_mark_end((uint32_t)(uint16_t)(q - &__heap_start));
     cli();
     sleep_mode();
