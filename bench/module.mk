@@ -71,8 +71,12 @@ BENCH_ARGS ?=
 bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_modules/.plotkin-stamp
 	@$(PYTHON3) bench/run_bench.py --build $(BENCH_DIR) $(BENCH_ARGS)
 
+# The bench group is installed only when a tool is missing: where Node comes
+# from NodeSource, its nodejs package carries npm and Debian's npm cannot be
+# installed beside it (apt: "held broken packages").
 bench:
-	@bash .ci/deps.sh base targets bench
+	@bash .ci/deps.sh base targets
+	@for t in valgrind node npm; do command -v $$t >/dev/null || { bash .ci/deps.sh bench; break; }; done
 	@$(MAKE) --no-print-directory bench-host bench-avr
 
 # bench/module.mk — benchmark programs (print tables; never pass/fail).
