@@ -8,7 +8,9 @@
  * It is also the first program of the on-target run (tests/extra/
  * qemu_cortexm.sh), where it exercises 64-bit compares and decimal printing
  * through libgcc on an MCU, and the exit-code path: built with
- * -DTH_SELFTEST_DELIBERATE_FAIL it must fail, which the script checks.
+ * -DTH_SELFTEST_DELIBERATE_FAIL it must fail, and with
+ * -DTH_SELFTEST_DELIBERATE_FAULT it must crash into the fault handler,
+ * which the script checks.
  */
 #include <stdint.h>
 #include "th.h"
@@ -86,6 +88,9 @@ static void test_64_bit_checks_compare_all_64_bits(void)
 #ifdef TH_SELFTEST_DELIBERATE_FAIL
 static void test_deliberate_failure_reaches_the_exit_code(void) { TH_EXPECT_EQ(1, 2); }
 #endif
+#ifdef TH_SELFTEST_DELIBERATE_FAULT
+static void test_deliberate_crash_is_not_a_pass(void) { __builtin_trap(); }
+#endif
 
 int th_main(int argc, char **argv); /* called by tests/th_host.c or the target start-up */
 int th_main(int argc, char **argv)
@@ -99,6 +104,9 @@ int th_main(int argc, char **argv)
         TH_CASE(test_64_bit_checks_compare_all_64_bits),
 #ifdef TH_SELFTEST_DELIBERATE_FAIL
         TH_CASE(test_deliberate_failure_reaches_the_exit_code),
+#endif
+#ifdef TH_SELFTEST_DELIBERATE_FAULT
+        TH_CASE(test_deliberate_crash_is_not_a_pass),
 #endif
     };
     return th_run(cases, TH_COUNT(cases));

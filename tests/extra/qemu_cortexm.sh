@@ -6,8 +6,9 @@
 # and no libc) under `qemu-system-arm -M mps2-an385`. A program passes when
 # its closing "N passed, N failed" line says 0 failed AND QEMU's exit code
 # (SYS_EXIT_EXTENDED, = th_main's return) is 0. A deliberately failing image
-# must come back with exit code 1 and "1 failed": that proves a failure on
-# target cannot look like a pass. Prints "N passed, N failed" last (the sum of
+# must come back with exit code 1 and "1 failed", and a deliberately crashing
+# one with the fault handler's exit code 120: a failure or a crash on target
+# cannot look like a pass. Prints "N passed, N failed" last (the sum of
 # the programs' cases plus the exit-code check); skipped (0 passed, 0 failed)
 # when the Arm toolchain or QEMU is not installed.
 set -uo pipefail
@@ -29,12 +30,13 @@ runq() {  # image -> sets qout, qrc
 tp=0; tf=0
 for img in "$DIR"/*.elf; do
   name=$(basename "$img" .elf)
-  [[ $name == deliberate_fail ]] && continue
+  [[ $name == deliberate_fail || $name == deliberate_fault ]] && continue
   runq "$img"
   last=$(printf '%s\n' "$qout" | grep -E '^[0-9]+ passed, [0-9]+ failed' | tail -n 1)
   if [[ -z $last ]]; then
     printf '%s\n' "$qout" | tail -n 10
-    echo "FAIL $name on cortex-m3: no result line (exit $qrc${qrc/124/, timeout})"; tf=$((tf+1)); continue
+    why="exit $qrc"; [[ $qrc -eq 124 ]] && why="timeout after 30 s"; [[ $qrc -eq 120 ]] && why="fault"
+    echo "FAIL $name on cortex-m3: no result line ($why)"; tf=$((tf+1)); continue
   fi
   p=${last%% passed*}; f=${last#*, }; f=${f%% failed*}
   tp=$((tp+p)); tf=$((tf+f))
@@ -50,6 +52,12 @@ if [[ $qrc -eq 1 && $last == *", 1 failed" ]]; then
   tp=$((tp+1)); echo "cortex-m3 a failing test fails the run: exit code 1, '$last'"
 else
   tf=$((tf+1)); echo "FAIL cortex-m3 deliberate failure not reported: exit $qrc, '$last'"
+fi
+runq "$DIR/deliberate_fault.elf"
+if [[ $qrc -eq 120 ]] && grep -q '^FAULT' <<<"$qout" && ! grep -qE '^[0-9]+ passed, 0 failed' <<<"$qout"; then
+  tp=$((tp+1)); echo "cortex-m3 a crashing test fails the run: fault handler, exit code 120"
+else
+  tf=$((tf+1)); echo "FAIL cortex-m3 deliberate crash not reported: exit $qrc"
 fi
 echo "$tp passed, $tf failed"
 [[ $tf -eq 0 ]]

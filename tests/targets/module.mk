@@ -115,7 +115,7 @@ QEMU_SKIP ?=
 QEMU_PROGS := test_th_selftest \
   $(filter-out $(QEMU_SKIP),$(patsubst tests/%.c,%,$(sort $(wildcard tests/test_refine*.c))))
 QEMU_IMAGES := $(addprefix $(TGT_DIR)/m3/tests/,$(addsuffix .elf,$(QEMU_PROGS))) \
-               $(TGT_DIR)/m3/tests/deliberate_fail.elf
+               $(TGT_DIR)/m3/tests/deliberate_fail.elf $(TGT_DIR)/m3/tests/deliberate_fault.elf
 TGT_M3_TESTFLAGS := $(TGT_FLAGS_m3) -Os -g -ffunction-sections -fdata-sections
 TGT_M3_SUPPORT := $(TGT_DIR)/m3/obj/tests/th.o $(TGT_DIR)/m3/obj/img/cm_start.o $(TGT_DIR)/m3/obj/img/cm_mini_libc.o
 
@@ -125,6 +125,9 @@ $(TGT_DIR)/m3/obj/tests/%.o: tests/%.c
 $(TGT_DIR)/m3/obj/tests/deliberate_fail.o: tests/test_th_selftest.c
 	@mkdir -p $(@D)
 	$(ARM_CC) $(TGT_CPPFLAGS) -Itests $(WARN) $(TGT_M3_TESTFLAGS) -DTH_SELFTEST_DELIBERATE_FAIL -c $< -o $@
+$(TGT_DIR)/m3/obj/tests/deliberate_fault.o: tests/test_th_selftest.c
+	@mkdir -p $(@D)
+	$(ARM_CC) $(TGT_CPPFLAGS) -Itests $(WARN) $(TGT_M3_TESTFLAGS) -DTH_SELFTEST_DELIBERATE_FAULT -c $< -o $@
 $(eval $(call tgt_img_rule,m3,$(TGT_FLAGS_m3)))
 $(TGT_DIR)/m3/tests/%.elf: $(TGT_DIR)/m3/obj/tests/%.o $(TGT_M3_SUPPORT) $(TGT_DIR)/m3/libplotkin_fw.a tests/targets/cortexm.ld
 	@mkdir -p $(@D)
