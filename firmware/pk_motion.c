@@ -90,7 +90,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
 
 static bool alarmed(const struct pk_machine *m)
 {
-    return atomic_load_explicit(&m->sg.alarm, memory_order_acquire) != 0;
+    return (m->sg.alarm) != 0;
 }
 
 static struct pk_req *req_slot(struct pk_machine *m)
@@ -263,7 +263,7 @@ static bool drain_stroke(struct pk_machine *m)
             continue;
         }
         if (r < 0) {
-            atomic_store(&m->sg.alarm, PK_ALARM_INTERNAL);
+            m->sg.alarm = PK_ALARM_INTERNAL;
             return false;
         }
         break;
@@ -302,7 +302,7 @@ static void take_requests(struct pk_machine *m)
                     return;
                 continue; /* drain_stroke makes room in the kernel */
             }
-            atomic_store(&m->sg.alarm, PK_ALARM_INTERNAL);
+            m->sg.alarm = PK_ALARM_INTERNAL;
             return;
         }
         if (open) {
@@ -352,16 +352,16 @@ void pk_machine_poll(struct pk_machine *m)
     pk_sg_plan_state(&m->sg, &m->mq, &v2, &rem);
     pk_planner_replan(&m->planner, &m->mq, v2, rem);
     (void)pk_sg_prep(&m->sg, &m->mq);
-    if (pk_sg_pending(&m->sg) > 0 && !atomic_load_explicit(&m->sg.busy, memory_order_acquire)) {
+    if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
         m->sg.restart = true;
-        atomic_store_explicit(&m->sg.busy, true, memory_order_release);
+        m->sg.busy = true;
         uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
         int r = m->hal->ops->timer_start
                     ? m->hal->ops->timer_start(m->hal->ctx, pk_machine_timer_cb, m, now + 1u)
                     : PK_HAL_ENOSYS;
         if (r != 0) {
-            atomic_store(&m->sg.busy, false);
-            atomic_store(&m->sg.alarm, PK_ALARM_TIMER);
+            m->sg.busy = false;
+            m->sg.alarm = PK_ALARM_TIMER;
         }
     }
 }
@@ -397,11 +397,12 @@ bool pk_machine_reset(struct pk_machine *m)
     const struct pk_hal *h = m->hal;
     if (h->ops->timer_stop)
         (void)h->ops->timer_stop(h->ctx);
-    bool busy = atomic_load(&m->sg.busy);
+    bool busy = (m->sg.busy);
     bool interrupted = !alarmed(m) && (busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
                                        || m->sg.prep_active || pk_stroke_is_open(&m->stroke));
-    if (m->sg.phase == PK_SGP_PULSE && !alarmed(m))
-        (void)pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
+    /* leave every step line low (also after an alarm: a line whose lowering
+     * failed must not swallow the next edge) */
+    (void)pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
     pk_sg_flush(&m->sg);
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
@@ -438,7 +439,7 @@ enum pk_machine_state pk_machine_state(const struct pk_machine *m)
 {
     if (alarmed(m))
         return PK_STATE_ALARM;
-    bool busy = atomic_load_explicit(&m->sg.busy, memory_order_acquire);
+    bool busy = (m->sg.busy);
     uint32_t pend = pk_sg_pending(&m->sg);
     if (m->hold_req)
         return (m->sg.held && !busy && pend == 0) ? PK_STATE_HOLD : PK_STATE_HOLDING;
@@ -450,18 +451,18 @@ enum pk_machine_state pk_machine_state(const struct pk_machine *m)
 
 enum pk_alarm pk_machine_alarm(const struct pk_machine *m)
 {
-    return (enum pk_alarm)atomic_load_explicit(&m->sg.alarm, memory_order_acquire);
+    return (enum pk_alarm)(m->sg.alarm);
 }
 
 uint32_t pk_machine_queue_fill(const struct pk_machine *m)
 {
     uint32_t n = pk_mq_count(&m->mq);
-    if (!m->sg.prep_active && (pk_sg_pending(&m->sg) > 0 || atomic_load(&m->sg.busy)))
+    if (!m->sg.prep_active && (pk_sg_pending(&m->sg) > 0 || (m->sg.busy)))
         n++;
     return n;
 }
 
 pk_um_min_t pk_machine_speed(const struct pk_machine *m)
 {
-    return (pk_um_min_t)atomic_load_explicit(&m->sg.v_um_s, memory_order_relaxed) * 60u;
+    return (pk_um_min_t)(m->sg.v_um_s) * 60u;
 }

@@ -24,9 +24,6 @@
 #include "pk_motion.h"
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
-#if (PK_SG_CHUNKS & (PK_SG_CHUNKS - 1)) != 0
-#error "PK_SG_CHUNKS must be a power of two"
-#endif
 
 /* ------------------------------------------------------------------ prep */
 
@@ -131,25 +128,25 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     sg->chunk_ticks_max = tick_hz / 500u; /* 2 ms */
     if (sg->chunk_ticks_max == 0)
         sg->chunk_ticks_max = 1;
-    atomic_init(&sg->head, 0u);
-    atomic_init(&sg->tail, 0u);
-    atomic_init(&sg->busy, false);
-    atomic_init(&sg->alarm, 0);
-    atomic_init(&sg->v_um_s, 0u);
+    sg->head = 0u;
+    sg->tail = 0u;
+    sg->busy = false;
+    sg->alarm = 0;
+    sg->v_um_s = 0u;
 }
 
 uint32_t pk_sg_pending(const struct pk_stepgen *sg)
 {
-    unsigned h = atomic_load_explicit(&sg->head, memory_order_acquire);
-    unsigned t = atomic_load_explicit(&sg->tail, memory_order_acquire);
-    return (uint32_t)(h - t);
+    uint8_t h = sg->head;
+    uint8_t t = sg->tail;
+    return (uint8_t)(h - t);
 }
 
 static struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
 {
     if (pk_sg_pending(sg) >= PK_SG_CHUNKS)
         return NULL;
-    unsigned h = atomic_load_explicit(&sg->head, memory_order_relaxed);
+    uint8_t h = sg->head;
     struct pk_sg_chunk *c = &sg->ring[h & SG_MASK];
     memset(c, 0, sizeof *c);
     return c;
@@ -157,8 +154,9 @@ static struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
 
 static void ring_commit(struct pk_stepgen *sg)
 {
-    unsigned h = atomic_load_explicit(&sg->head, memory_order_relaxed);
-    atomic_store_explicit(&sg->head, h + 1u, memory_order_release);
+    uint8_t h = sg->head;
+    PK_BARRIER(); /* the chunk is written before it is published */
+    sg->head = (uint8_t)(h + 1u);
 }
 
 void pk_sg_set_hold(struct pk_stepgen *sg, bool hold)
@@ -343,8 +341,8 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
 
 void pk_sg_flush(struct pk_stepgen *sg)
 {
-    atomic_store(&sg->head, 0u);
-    atomic_store(&sg->tail, 0u);
+    sg->head = 0u;
+    sg->tail = 0u;
     sg->prep_active = false;
     sg->hold = false;
     sg->held = false;
@@ -355,26 +353,26 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->phase = PK_SGP_GAP;
     sg->left = 0;
     sg->mask_due = 0;
-    atomic_store(&sg->busy, false);
-    atomic_store(&sg->alarm, 0);
-    atomic_store(&sg->v_um_s, 0u);
+    sg->busy = false;
+    sg->alarm = 0;
+    sg->v_um_s = 0u;
 }
 
 /* ------------------------------------------------------------------ ISR */
 
-static uint64_t isr_alarm(struct pk_stepgen *sg, int why)
+static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
 {
-    atomic_store_explicit(&sg->alarm, why, memory_order_release);
-    atomic_store_explicit(&sg->v_um_s, 0u, memory_order_relaxed);
-    atomic_store_explicit(&sg->busy, false, memory_order_release);
+    sg->alarm = why;
+    sg->v_um_s = 0u;
+    sg->busy = false;
     return 0;
 }
 
 uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now)
 {
     const uint32_t all = (1u << sg->axes) - 1u;
-    if (atomic_load_explicit(&sg->alarm, memory_order_relaxed) != 0)
-        return isr_alarm(sg, atomic_load(&sg->alarm));
+    if ((sg->alarm) != 0)
+        return isr_alarm(sg, sg->alarm);
     if (sg->restart) {
         sg->restart = false;
         if (sg->next_q16 < (now << 16))
@@ -404,11 +402,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
     }
     uint64_t earliest = now;
     if (sg->left == 0) {
-        unsigned t = atomic_load_explicit(&sg->tail, memory_order_relaxed);
-        unsigned h = atomic_load_explicit(&sg->head, memory_order_acquire);
+        uint8_t t = sg->tail;
+        uint8_t h = sg->head;
+        PK_BARRIER(); /* read the chunk only after seeing it published */
         if (t == h) {
-            atomic_store_explicit(&sg->v_um_s, 0u, memory_order_relaxed);
-            atomic_store_explicit(&sg->busy, false, memory_order_release);
+            sg->v_um_s = 0u;
+            sg->busy = false;
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
@@ -416,8 +415,9 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->tool) != 0)
                 return isr_alarm(sg, PK_ALARM_TOOL_WRITE);
             uint64_t until = now + c->wait_ticks;
-            atomic_store_explicit(&sg->v_um_s, 0u, memory_order_relaxed);
-            atomic_store_explicit(&sg->tail, t + 1u, memory_order_release);
+            sg->v_um_s = 0u;
+            PK_BARRIER();
+            sg->tail = (uint8_t)(t + 1u);
             sg->next_q16 = until << 16;
             return until > now ? until : now + 1u;
         }
@@ -438,8 +438,9 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         sg->I = c->c0;
         sg->A = c->c1;
         sg->B = c->c2;
-        atomic_store_explicit(&sg->v_um_s, c->v_um_s, memory_order_relaxed);
-        atomic_store_explicit(&sg->tail, t + 1u, memory_order_release);
+        sg->v_um_s = c->v_um_s;
+        PK_BARRIER(); /* done reading the slot before handing it back */
+        sg->tail = (uint8_t)(t + 1u);
     }
     sg->next_q16 += (uint64_t)sg->I;
     sg->I += sg->A;
