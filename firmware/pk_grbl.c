@@ -210,7 +210,7 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
     }
 }
 
-static int mstate(struct pk_grbl *g) { return g->mo->state(g->m); }
+static int mstate(struct pk_grbl *g) { return g->mo.state(g->m); }
 
 static void greet(struct pk_grbl *g)
 {
@@ -222,7 +222,7 @@ static void greet(struct pk_grbl *g)
 static void status_report(struct pk_grbl *g)
 {
     pk_um_t pos[PK_GC_AXES];
-    g->mo->position_um(g->m, pos);
+    g->mo.position_um(g->m, pos);
     int st = mstate(g);
     puts_(g, "<");
     if (st == PK_GRBL_M_ALARM || g->alarm)
@@ -240,12 +240,12 @@ static void status_report(struct pk_grbl *g)
     puts_(g, "|MPos:");
     put_xyz(g, pos);
     puts_(g, "|Bf:");
-    put_u32(g, g->mo->blocks_free(g->m));
+    put_u32(g, g->mo.blocks_free(g->m));
     puts_(g, ",");
     size_t used = g->io.rx_used ? g->io.rx_used(g->io.ctx) : 0;
     put_u32(g, used >= PK_GRBL_RX_ADVERTISED ? 0u : (uint32_t)(PK_GRBL_RX_ADVERTISED - used));
     puts_(g, "|FS:");
-    put_u32(g, (uint32_t)pk_div_round64(g->mo->speed_umpm(g->m), 1000));
+    put_u32(g, (uint32_t)pk_div_round64(g->mo.speed_umpm(g->m), 1000));
     puts_(g, ",0");
     if (g->gc.offset_um[0] || g->gc.offset_um[1] || g->gc.offset_um[2]) {
         puts_(g, "|WCO:");
@@ -259,7 +259,7 @@ static void reset_gcode_state(struct pk_grbl *g)
     struct pk_gc_limits lim;
     pk_um_t pos[PK_GC_AXES];
     limits_from_settings(&g->set, &lim);
-    g->mo->position_um(g->m, pos);
+    g->mo.position_um(g->m, pos);
     pk_gcode_state_init(&g->gc, &lim, pos);
 }
 
@@ -276,7 +276,7 @@ static void drop_input(struct pk_grbl *g)
 
 static void soft_reset(struct pk_grbl *g)
 {
-    int cut = g->mo->reset(g->m);
+    int cut = g->mo.reset(g->m);
     g->stats.resets++;
     drop_input(g);
     /* Like Grbl, forget what was received but not yet read: a sender
@@ -311,9 +311,9 @@ static void realtime(struct pk_grbl *g)
             g->status_due = 1;
         } else if (b == '!') {
             if (!g->check_mode)
-                g->mo->hold(g->m);
+                g->mo.hold(g->m);
         } else if (b == '~') {
-            g->mo->resume(g->m);
+            g->mo.resume(g->m);
         }
     }
 }
@@ -371,7 +371,7 @@ static int continue_report(struct pk_grbl *g)
         }
         case R_INFO:
             puts_(g, "[VER:1.1h." PK_GRBL_VERSION_STR ":]\r\n[OPT:,");
-            put_u32(g, g->mo->blocks_total(g->m));
+            put_u32(g, g->mo.blocks_total(g->m));
             puts_(g, ",");
             put_u32(g, PK_GRBL_RX_ADVERTISED);
             puts_(g, "]\r\n");
@@ -438,14 +438,14 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
         return 8;
     struct pk_grbl_settings next = g->set;
     next.v[idx] = val;
-    if (g->mo->configure(g->m, &next) != 0)
+    if (g->mo.configure(g->m, &next) != 0)
         return 3;
     g->set = next;
     /* New travel limits; the machine may also have restarted its position. */
     struct pk_gc_limits lim;
     limits_from_settings(&g->set, &lim);
     g->gc.lim = lim;
-    g->mo->position_um(g->m, g->gc.pos_um);
+    g->mo.position_um(g->m, g->gc.pos_um);
     g->pen_now = 2;
     return 0;
 }
@@ -489,7 +489,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *s, size_t n)
     }
     if (k == 1 && c[0] == 'X') {
         if (mstate(g) == PK_GRBL_M_ALARM) {
-            g->mo->reset(g->m);
+            g->mo.reset(g->m);
             reset_gcode_state(g);
             g->pen_now = 2;
         }
@@ -531,7 +531,7 @@ static int advance(struct pk_grbl *g)
     int rc;
     if (g->cmd_todo & PK_GC_DO_PEN) {
         if (g->pen_now != c->pen) {
-            rc = g->mo->pen(g->m, c->pen == PK_GC_PEN_DOWN);
+            rc = g->mo.pen(g->m, c->pen == PK_GC_PEN_DOWN);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
@@ -541,7 +541,7 @@ static int advance(struct pk_grbl *g)
         g->cmd_todo &= (uint8_t)~PK_GC_DO_PEN;
     }
     if (g->cmd_todo & PK_GC_DO_DWELL) {
-        rc = g->mo->dwell(g->m, c->dwell_ms);
+        rc = g->mo.dwell(g->m, c->dwell_ms);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -550,7 +550,7 @@ static int advance(struct pk_grbl *g)
     }
     if (g->cmd_todo & PK_GC_DO_PATH) {
         pk_um_t tol = c->tol_um > 0 ? c->tol_um : mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM);
-        rc = g->mo->smoothing(g->m, c->path == PK_GC_PATH_EXACT, tol);
+        rc = g->mo.smoothing(g->m, c->path == PK_GC_PATH_EXACT, tol);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -580,7 +580,7 @@ static int advance(struct pk_grbl *g)
                     g->pt_held = 1;
                 }
                 pk_um_t t[PK_GC_AXES] = { g->pt[0], g->pt[1], c->target_um[2] };
-                rc = g->mo->move(g->m, t, c->feed_umpm, 0);
+                rc = g->mo.move(g->m, t, c->feed_umpm, 0);
                 if (rc == PK_GRBL_M_FULL)
                     return 0;
                 if (rc != PK_GRBL_M_OK)
@@ -590,7 +590,7 @@ static int advance(struct pk_grbl *g)
             }
             g->bez_on = 0;
         } else {
-            rc = g->mo->move(g->m, c->target_um, c->feed_umpm, c->motion == PK_GC_MOT_RAPID);
+            rc = g->mo.move(g->m, c->target_um, c->feed_umpm, c->motion == PK_GC_MOT_RAPID);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
@@ -601,14 +601,14 @@ static int advance(struct pk_grbl *g)
     }
     if (g->cmd_todo & PK_GC_DO_STOP) {
         if (g->pen_now != 0) {
-            rc = g->mo->pen(g->m, 0);
+            rc = g->mo.pen(g->m, 0);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
                 return -1;
             g->pen_now = 0;
         }
-        rc = g->mo->end(g->m);
+        rc = g->mo.end(g->m);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -720,7 +720,7 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
 {
     memset(g, 0, sizeof *g);
     g->io = *io;
-    g->mo = mo;
+    g->mo = *mo;
     g->m = m;
     if (set)
         g->set = *set;

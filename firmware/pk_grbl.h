@@ -141,7 +141,7 @@ struct pk_grbl_stats {
 /** The engine. Caller-owned; members are private. */
 struct pk_grbl {
     struct pk_grbl_stream io;
-    const struct pk_grbl_machine_ops *mo;
+    struct pk_grbl_machine_ops mo; /* copied at init */
     void *m;
     struct pk_grbl_settings set;
     struct pk_gc_state gc;
