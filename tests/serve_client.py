@@ -199,7 +199,7 @@ def main():
     check("~ resumes and the stroke ends exactly on its last point", near(mpos(st), end), (st, end))
 
     # 5. Soft reset during motion.
-    for ln in ["G61", "G1 X100 Y100 F2000", "G1 X0 Y0", "G1 X100 Y0", "G1 X0 Y100"]:
+    for ln in ["G61", "G1 X100 Y100 F300", "G1 X0 Y0", "G1 X100 Y0", "G1 X0 Y100"]:
         g.write((ln + "\n").encode())
         g.answer()
     g.wait_state({"Run"}, 10)
