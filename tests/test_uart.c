@@ -178,6 +178,9 @@ static void test_a_pty_client_and_the_shim_exchange_bytes_both_ways(void)
     TH_EXPECT_EQ(pk_serial_unread(&s), 0);
     pk_uart_write(&u, (const uint8_t *)"ok\r\n", 4);
     TH_ASSERT_EQ(pk_serial_pump(&s, &u), 0);
+    /* The tty layer hands the bytes to the slave side asynchronously. */
+    for (int spins = 0; spins < 200 && pk_serial_unread(&s) < 4; spins++)
+        wait_readable(s.slave_fd, 5);
     TH_EXPECT_EQ(pk_serial_unread(&s), 4);
     pk_serial_discard_unread(&s);
     TH_EXPECT_EQ(pk_serial_unread(&s), 0);
