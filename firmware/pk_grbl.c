@@ -378,7 +378,7 @@ static int continue_report(struct pk_grbl *g)
             goto done;
         }
         case R_INFO:
-            puts_(g, "[VER:1.1h." PK_GRBL_VERSION_STR ":]\r\n[OPT:,");
+            puts_(g, "[VER:1.1h.plotkin-0.1:]\r\n[OPT:,");
             put_u32(g, g->mo.blocks_total(g->m));
             puts_(g, ",");
             put_u32(g, PK_GRBL_RX_ADVERTISED);
