@@ -627,8 +627,11 @@ static int advance(struct pk_grbl *g)
                     p[2][0] = c->target_um[0];
                     p[2][1] = c->target_um[1];
                 }
+                /* The curve is flattened within the smoothing tolerance in
+                 * force: G64 P<tol> if one was given, else $12. */
                 pk_bez_init(&g->bez, (const pk_um_t(*)[2])p, c->motion == PK_GC_MOT_QUAD,
-                            mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
+                            g->gc.tol_um > 0 ? g->gc.tol_um
+                                             : mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
                 g->bez_on = 1;
                 g->pt_held = 0;
             }

@@ -560,6 +560,20 @@ static void test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly(void)
     TH_EXPECT(cubic_end > 2);
 }
 
+static void test_g64_p_also_sets_how_finely_g5_curves_are_flattened(void)
+{
+    int n[2];
+    for (int k = 0; k < 2; k++) {
+        rig_init(64);
+        poll_n(2, 0);
+        rxs(k == 0 ? "G64 P0.1\n" : "G64 P0.001\n");
+        rxs("G0 X10 Y10\nG5 X60 Y10 I0 J40 P0 Q40 F2000\n");
+        poll_n(200, 1);
+        n[k] = R.f.logn;
+    }
+    TH_EXPECT(n[1] > 4 * n[0]); /* 100x tighter: about 10x more chords */
+}
+
 static void test_offsets_show_in_status_and_g_state(void)
 {
     rig_init(8);
@@ -724,6 +738,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_pen_dwell_smoothing_and_end_reach_the_machine_in_order),
         TH_CASE(test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly),
         TH_CASE(test_offsets_show_in_status_and_g_state),
+        TH_CASE(test_g64_p_also_sets_how_finely_g5_curves_are_flattened),
         TH_CASE(test_jog_moves_without_touching_modal_state_and_cancels_cleanly),
         TH_CASE(test_a_machine_fault_raises_alarm_1_and_locks_g_code),
         TH_CASE(test_random_traffic_gets_exactly_one_answer_per_line),
