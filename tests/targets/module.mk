@@ -58,11 +58,9 @@ $(TGT_DIR)/$(1)/libplotkin_fw.a: $$(call tgt_fw_objs,$(1))
 endef
 $(foreach t,m0plus m4 m3 avr,$(eval $(call tgt_fw_rule,$(t),$(TGT_CC_$(t)),$(TGT_FLAGS_$(t)))))
 # The Chaikin-only configuration (2 points of history per level).
-# TGT_WIN2_EXTRA: with PK_WIN=2, GCC 12 (host -O2/-Os and arm-none-eabi -Os)
-# reports -Warray-bounds in the cubic-clamped emitter, which pk_refine_init
-# never reaches in that build (PK_ENOTSUP). Reported to the kernel's owner;
-# set TGT_WIN2_EXTRA= to see whether it is fixed.
-TGT_WIN2_EXTRA ?= -Wno-array-bounds
+# TGT_WIN2_EXTRA: extra flags for that build (none needed: the kernel guards
+# the emitters a 2-point window cannot run at compile time).
+TGT_WIN2_EXTRA ?=
 $(eval $(call tgt_fw_rule,m0plus-win2,$(ARM_CC),$(TGT_FLAGS_m0plus) -DPK_WIN=2 $(TGT_WIN2_EXTRA)))
 
 TGT_CHECKED := m0plus m4 avr
