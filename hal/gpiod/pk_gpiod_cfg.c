@@ -79,7 +79,7 @@ static int parse_u32(const char *tok, uint32_t max, uint32_t *v)
 
 int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, size_t errlen)
 {
-    unsigned lineno = 0;
+    unsigned lineno = 0, nstep = 0, ndir = 0;
     const char *p = text;
 
     while (*p != '\0') {
@@ -132,11 +132,13 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
             for (unsigned i = 0; i < nv; i++)
                 dst[i] = v[i];
             if (key[0] == 's')
-                cfg->axes = (uint8_t)nv;
-            else if (cfg->axes != 0u && cfg->axes != nv)
-                return fail(err, errlen, lineno, "'dir' lists %u lines, 'step' %u", nv, (unsigned)cfg->axes);
+                nstep = nv;
             else
-                cfg->axes = (uint8_t)nv;
+                ndir = nv;
+            if (nstep != 0u && ndir != 0u && nstep != ndir)
+                return fail(err, errlen, lineno, "'dir' lists %u lines, 'step' %u", ndir, nstep);
+            if (nstep != 0u)
+                cfg->axes = (uint8_t)nstep;
         } else if (!strcmp(key, "enable")) {
             if (nv > PK_HAL_MAX_AXES)
                 return fail(err, errlen, lineno, "'enable': at most %d lines", PK_HAL_MAX_AXES);
@@ -163,5 +165,7 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
             return fail(err, errlen, lineno, "unknown key '%s'", key);
         }
     }
+    if (ndir != 0u && nstep == 0u && cfg->axes == 0u)
+        return fail(err, errlen, 0, "gpiod config: 'dir' given but no 'step' lines");
     return pk_gpiod_cfg_check(cfg, err, errlen);
 }
