@@ -196,7 +196,8 @@ int gpiod_line_set_value_bulk(struct gpiod_line_bulk *bulk, const int *values)
             e = EINVAL;
     }
     if (e != 0) {
-        m->set_failures++;
+        if (m->set_failures++ == 0u)
+            m->first_failure_tick = mock_now(m);
         return fail(e);
     }
     m->sets_ok++;

@@ -81,6 +81,7 @@ struct pk_gpiod_mock {
     uint32_t set_failures;      /**< set calls that failed (any reason) */
     uint32_t sets_ok;           /**< set calls that succeeded */
     uint32_t sets_ok_after_failure; /**< successful sets after the first failed one */
+    uint64_t first_failure_tick;    /**< clock at the first failed set */
     uint32_t changes;           /**< line value changes by writes */
     uint32_t requested;         /**< lines currently requested */
     uint8_t is_open;

@@ -28,6 +28,7 @@ struct pk_sim_opts {
 };
 
 struct pk_sim_result {
+    struct pk_sim_opts opts;        /**< copy of the options (pointers shared) */
     struct pk_sim_hw hw;
     struct pk_machine m;
     struct pk_sim_job job;
@@ -35,7 +36,7 @@ struct pk_sim_result {
     struct pk_motion_cfg mcfg;
     int setup_failed;               /**< 1: hardware/machine setup failed (see err) */
     char err[200];
-    int run_status;                 /**< enum pk_sim_run_status */
+    int run_status;                 /**< enum pk_sim_run_status; -1 while running */
     pk_steps_t fw_steps[PK_AXES];   /**< position the firmware reports */
     uint64_t ticks;                 /**< simulated time at the end */
     double max_speed_mm_s[PK_AXES];
@@ -50,6 +51,16 @@ struct pk_sim_result {
  * pk_sim_result_free(r) afterwards. r is large: static or heap storage.
  */
 int pk_sim_run(const struct pk_sim_opts *o, struct pk_sim_result *r);
+
+/**
+ * The same in steps, so that several machines can be interleaved in one
+ * process: pk_sim_start sets up (returns -1 on setup failure, see r->err),
+ * pk_sim_advance runs up to `ticks` more simulated ticks (0: to the end) and
+ * returns 1 once the run is over, pk_sim_finish decodes and measures.
+ */
+int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r);
+int pk_sim_advance(struct pk_sim_result *r, uint64_t ticks);
+int pk_sim_finish(struct pk_sim_result *r);
 
 void pk_sim_result_free(struct pk_sim_result *r);
 

@@ -15,6 +15,7 @@ void pk_sim_sched_init(struct pk_sim_sched *s, uint32_t tick_hz, uint32_t main_p
     s->main_period = main_period ? main_period : 1u;
     s->idle_period = tick_hz / 1000u ? tick_hz / 1000u : 1u; /* 1 ms */
     s->idle_limit = (uint64_t)tick_hz * 10u;                 /* 10 s */
+    s->idle_since = UINT64_MAX;
 }
 
 uint64_t pk_sim_sched_clock(void *arg)
@@ -111,34 +112,32 @@ int pk_sim_sched_advance(struct pk_sim_sched *s, uint64_t until)
 int pk_sim_sched_run(struct pk_sim_sched *s, pk_sim_main_fn main_fn, void *arg, uint64_t max_ticks)
 {
     uint64_t limit = max_ticks ? s->now + max_ticks : UINT64_MAX;
-    uint64_t idle_since = UINT64_MAX;
 
     for (;;) {
-        uint32_t depth = s->irq_depth;
-        int st = main_fn(arg, s->now);
-        s->main_iterations++;
-        if (s->irq_depth != depth)
-            return PK_SIM_RUN_IRQ_IMBALANCE;
-        if (st == PK_SIM_DONE && !s->armed)
-            return PK_SIM_RUN_FINISHED;
-
-        uint64_t target;
-        if (st == PK_SIM_BUSY) {
-            target = s->now + s->main_period;
-            idle_since = UINT64_MAX;
-        } else if (s->armed) {
-            /* Idle: sleep until the next callback (the "wfi" of the sim). */
-            target = s->due > s->now ? s->due : s->now;
-            idle_since = UINT64_MAX;
-        } else {
-            if (idle_since == UINT64_MAX)
-                idle_since = s->now;
-            else if (s->now - idle_since >= s->idle_limit)
-                return PK_SIM_RUN_STUCK;
-            target = s->now + s->idle_period;
+        if (s->now >= s->main_due) {
+            uint32_t depth = s->irq_depth;
+            int st = main_fn(arg, s->now);
+            s->main_iterations++;
+            if (s->irq_depth != depth)
+                return PK_SIM_RUN_IRQ_IMBALANCE;
+            if (st == PK_SIM_DONE && !s->armed)
+                return PK_SIM_RUN_FINISHED;
+            if (st == PK_SIM_BUSY) {
+                s->main_due = s->now + s->main_period;
+                s->idle_since = UINT64_MAX;
+            } else if (s->armed) {
+                /* Idle: sleep until the next callback (the "wfi" of the sim). */
+                s->main_due = s->due > s->now ? s->due : s->now;
+                s->idle_since = UINT64_MAX;
+            } else {
+                if (s->idle_since == UINT64_MAX)
+                    s->idle_since = s->now;
+                else if (s->now - s->idle_since >= s->idle_limit)
+                    return PK_SIM_RUN_STUCK;
+                s->main_due = s->now + s->idle_period;
+            }
         }
-        if (target > limit)
-            target = limit;
+        uint64_t target = s->main_due < limit ? s->main_due : limit;
         if (pk_sim_sched_advance(s, target) != PK_SIM_RUN_FINISHED)
             return PK_SIM_RUN_RUNAWAY;
         if (s->now >= limit)

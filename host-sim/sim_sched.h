@@ -60,6 +60,8 @@ struct pk_sim_sched {
     uint32_t irq_depth;
     uint64_t callbacks;        /**< timer callbacks run */
     uint64_t main_iterations;
+    uint64_t main_due;         /**< tick of the next main-loop iteration */
+    uint64_t idle_since;       /**< start of an idle spell with no timer (UINT64_MAX: none) */
 };
 
 /** Initialise at tick 0. main_period and idle_period must be >= 1. */
@@ -74,6 +76,9 @@ uint64_t pk_sim_sched_clock(void *arg);
 /**
  * Run the main loop and the timer until the program is done or max_ticks of
  * simulated time have passed (0: no limit). Returns enum pk_sim_run_status.
+ * After PK_SIM_RUN_TIME_LIMIT a further call resumes exactly where the run
+ * stopped: slicing a run changes nothing in it (several machines can be
+ * interleaved in one process).
  */
 int pk_sim_sched_run(struct pk_sim_sched *s, pk_sim_main_fn main_fn, void *arg, uint64_t max_ticks);
 

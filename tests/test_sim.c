@@ -199,7 +199,10 @@ static void test_a_main_loop_that_waits_forever_is_reported_stuck(void)
     struct pk_sim_sched s;
     pk_sim_sched_init(&s, 1000u, 1u);
     TH_EXPECT_EQ(pk_sim_sched_run(&s, never_done, NULL, 0), PK_SIM_RUN_STUCK);
+    TH_EXPECT_EQ(s.now, 10000); /* idle_limit: 10 s of 1 kHz ticks */
+    pk_sim_sched_init(&s, 1000u, 1u);
     TH_EXPECT_EQ(pk_sim_sched_run(&s, never_done, NULL, 500u), PK_SIM_RUN_TIME_LIMIT);
+    TH_EXPECT_EQ(s.now, 500);
 }
 
 /* ---- decoder ----------------------------------------------------------- */
