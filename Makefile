@@ -51,6 +51,7 @@ TESTS       := $(addprefix $(BUILD)/tests/,$(TEST_NAMES))
 TESTS_S     := $(addprefix $(SAN)/tests/,$(TEST_NAMES))
 
 .PHONY: all deps test test-build example bench clean FORCE
+.SECONDARY:
 all: $(BUILD)/plotkin
 
 # ---- compile rules -------------------------------------------------------

@@ -165,8 +165,8 @@ struct pk_machine {
     struct pk_stepgen sg;                /**< chunk prep (MAIN) + pulse emission (ISR) */
     pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
     pk_um_t target_um[PK_AXES];          /**< last requested position, µm (MAIN) */
+    pk_um_s_t stroke_feed;               /**< feed of the open stroke, µm/s (MAIN) */
     bool hold_req;                       /**< feed hold requested (MAIN) */
-    bool timer_armed;                    /**< MAIN sets, ISR clears on return 0 */
 };
 
 /**

@@ -45,6 +45,16 @@ typedef int32_t pk_steps_t;
 typedef uint64_t pk_tq8_t;
 #define PK_TQ8_SHIFT 8
 
+/** Compiler barrier: memory accesses are not moved across it. Orders the
+ *  chunk data against the ring index shared with the timer callback (one
+ *  core: the hardware keeps program order for an interrupt; only the
+ *  compiler needs telling). */
+#if defined(__GNUC__) || defined(__clang__)
+#define PK_BARRIER() __atomic_signal_fence(__ATOMIC_SEQ_CST)
+#else
+#define PK_BARRIER() ((void)0)
+#endif
+
 /** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
 uint32_t pk_isqrt64(uint64_t x);
 

@@ -124,8 +124,11 @@ struct pk_level {
 
 /** The limit/tangent stage (private). */
 struct pk_limit_stage {
-    pk_w8_t w[PK_LWIN][PK_AXES];
-    uint8_t n, pend, ph, st;
+    pk_w8_t w[PK_LWIN][PK_AXES]; /**< the last inputs, w[PK_LWIN-1] newest */
+    uint8_t n;      /**< inputs seen, saturating at 255 */
+    int8_t lag;     /**< newest input index minus the next anchor's index */
+    uint8_t a;      /**< index of the next anchor, saturating at 255 */
+    uint8_t st;     /**< LV_FIN when finished */
 };
 
 /** One stream. Caller-owned; its size is fixed at compile time. */
@@ -138,9 +141,13 @@ struct pk_refine {
     uint8_t finishing;     /**< finish() was called */
     uint8_t close_c;       /**< closed: first points to replay */
     uint8_t close_i;       /**< closed: replay position */
-    uint8_t pad_;
+    uint8_t kind;          /**< what every level does (derived from cfg at init) */
+    uint8_t win;           /**< window points this scheme uses (<= PK_WIN) */
+    uint8_t pad_[3];
     uint32_t m;            /**< points pushed in this stroke (closed: bounded) */
-    uint32_t out_left;     /**< closed: outputs still to give (2^depth * m ...) */
+    uint32_t out_done;     /**< points delivered in this stroke (closed only needs it) */
+    uint32_t out_left;     /**< closed: outputs still to give (2^depth * m), else UINT32_MAX */
+    const void *lim_rule;  /**< limit stage: its mask table (pk_masks.h) */
     pk_w8_t in[PK_AXES];   /**< the input slot */
     pk_w8_t first[PK_CLOSE_MAX][PK_AXES]; /**< closed: the stroke's first points */
     struct pk_level lv[PK_MAX_DEPTH];
@@ -190,9 +197,12 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out);
 void pk_refine_reset(struct pk_refine *r);
 
 /**
- * Upper bound on the points that pk_refine_pull can deliver between one
- * PK_NEED_INPUT and the next after a single push (steady state), and after
- * finish: a consumer with this much room never has to stop mid-push.
+ * Upper bound on the points pk_refine_pull can deliver between one
+ * PK_NEED_INPUT (or the start) and the next. After a push it is exactly
+ * 2^depth in steady state; after pk_refine_finish it is at most
+ * 4 * 2^depth for open strokes and (PK_CLOSE_MAX + 1) * 2^depth for closed
+ * ones. This returns the larger, so a consumer with this much room never has
+ * to stop mid-stroke (stopping anyway is always safe).
  */
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg);
 

@@ -17,8 +17,10 @@
  * block's event count).
  *
  * Timer callback (pk_sg_isr): pops chunks from a single-producer /
- * single-consumer ring (C11 atomics: the head is written only by the main
- * loop, the tail only by the callback), raises the step lines of the axes due
+ * single-consumer ring (the head is written only by the main loop, the tail
+ * only by the callback; both are single bytes, so every read and write of
+ * them is atomic even on 8-bit targets, and PK_BARRIER orders the chunk
+ * data against the index that publishes it), raises the step lines of the axes due
  * at an event, lowers them step_pulse_ticks later, writes a direction change
  * at least dir_setup_ticks before the next step edge. A failing HAL write
  * latches an alarm; nothing more is written to the step lines and the
@@ -27,7 +29,6 @@
 #ifndef PLOTKIN_PK_STEPGEN_H
 #define PLOTKIN_PK_STEPGEN_H
 
-#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include "hal.h"
@@ -36,6 +37,9 @@
 /** Chunks buffered ahead of the timer (power of two). */
 #ifndef PK_SG_CHUNKS
 #define PK_SG_CHUNKS 16
+#endif
+#if PK_SG_CHUNKS > 128 || (PK_SG_CHUNKS & (PK_SG_CHUNKS - 1)) != 0
+#error "PK_SG_CHUNKS must be a power of two <= 128"
 #endif
 /** Most events in one chunk. */
 #ifndef PK_SG_MAX_EVENTS
@@ -54,7 +58,7 @@ struct pk_sg_chunk {
     int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
     uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
     uint32_t events;           /**< STEPS first: events of the block */
-    uint32_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
+    uint64_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
     pk_um_s_t v_um_s;          /**< speed at the chunk's end (reports) */
 };
 
@@ -79,8 +83,8 @@ struct pk_stepgen {
 
     /* ---- ring (head: MAIN writes; tail: ISR writes) ---- */
     struct pk_sg_chunk ring[PK_SG_CHUNKS];
-    atomic_uint head;
-    atomic_uint tail;
+    volatile uint8_t head;     /**< chunks published (mod 256) */
+    volatile uint8_t tail;     /**< chunks consumed (mod 256) */
 
     /* ---- timer-side state (ISR only, except as noted) ---- */
     uint8_t phase;             /**< enum pk_sg_phase */
@@ -93,9 +97,12 @@ struct pk_stepgen {
     uint32_t steps[PK_AXES];
     uint32_t events;
     int32_t acc[PK_AXES];      /**< Bresenham accumulators */
-    atomic_bool busy;          /**< ISR: true while it has work (MAIN reads) */
-    atomic_int alarm;          /**< enum pk_alarm latched by the ISR (MAIN reads) */
-    atomic_uint v_um_s;        /**< speed of the chunk executing (MAIN reads) */
+    volatile uint8_t busy;     /**< 1 from timer_start until the ISR returns 0 */
+    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
+    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
+                                    torn read on 8-bit targets only skews a report) */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
 };
 

@@ -21,6 +21,9 @@ struct th_case { const char *name; th_fn fn; };
 /** Platform hook: write a NUL-terminated string. */
 void th_write(const char *s);
 
+/** Each test program defines this; the platform's main() calls it. */
+int th_main(int argc, char **argv);
+
 /** Run the cases; returns the number of failed cases. */
 int th_run(const struct th_case *cases, unsigned n);
 

@@ -4,5 +4,4 @@
 
 void th_write(const char *s) { fputs(s, stdout); fflush(stdout); }
 
-int th_main(int argc, char **argv);
 int main(int argc, char **argv) { return th_main(argc, argv) ? 1 : 0; }
