@@ -138,6 +138,15 @@ static int read_number(struct pk_gc_cursor *c, pk_gc_u6_t *out)
     return PK_GC_OK;
 }
 
+int pk_gcode_parse_number(const uint8_t *s, size_t len, pk_gc_u6_t *out)
+{
+    struct pk_gc_cursor c = { s, len, 0 };
+    int rc = read_number(&c, out);
+    if (rc != PK_GC_OK)
+        return rc;
+    return cur_peek(&c) == CUR_END ? PK_GC_OK : PK_GC_E_EXPECTED_LETTER;
+}
+
 static int word_index(int letter)
 {
     switch (letter) {

@@ -236,4 +236,12 @@ int pk_gcode_interp(struct pk_gc_state *st, const struct pk_gc_block *b, struct 
  */
 int64_t pk_gcode_len_um(pk_gc_u6_t v, uint8_t units);
 
+/**
+ * Parse a whole string as one number (same rules as a word value: sign,
+ * digits, one point, spaces ignored, at most 9 integer digits).
+ * @return PK_GC_OK with *out set, PK_GC_E_BAD_NUMBER, or
+ *         PK_GC_E_EXPECTED_LETTER if something follows the number
+ */
+int pk_gcode_parse_number(const uint8_t *s, size_t len, pk_gc_u6_t *out);
+
 #endif

@@ -24,6 +24,7 @@ void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx)
     atomic_init(&u->tx_tail, 0);
     atomic_init(&u->rx_dropped, 0);
     atomic_init(&u->rx_overflows, 0);
+    atomic_init(&u->rx_lost_at, 0);
     u->rx_overflows_seen = 0;
     u->filter = filter;
     u->filter_ctx = ctx;
@@ -47,8 +48,10 @@ int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
         /* One event per run of lost bytes: a new event only once the main
          * loop has seen the previous one. */
         uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
-        if (ev == u->rx_overflows_seen)
+        if (ev == u->rx_overflows_seen) {
+            atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
             atomic_store_explicit(&u->rx_overflows, ev + 1u, memory_order_release);
+        }
         return PK_UART_RX_DROPPED;
     }
     u->rx[h & RX_MASK] = byte;
@@ -63,12 +66,17 @@ size_t pk_uart_rx_used(const struct pk_uart *u) { return rx_used(u); }
 int pk_uart_read(struct pk_uart *u, uint8_t *buf, size_t len)
 {
     uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_acquire);
-    if (ev != u->rx_overflows_seen) {
-        u->rx_overflows_seen = ev;
-        return PK_HAL_EIO;
-    }
     uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_relaxed);
     uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_acquire);
+    if (ev != u->rx_overflows_seen) {
+        /* Deliver up to the point of loss, then report it there. */
+        uint8_t at = atomic_load_explicit(&u->rx_lost_at, memory_order_relaxed);
+        if (t == at) {
+            u->rx_overflows_seen = ev;
+            return PK_HAL_EIO;
+        }
+        h = at;
+    }
     size_t n = 0;
     while (n < len && t != h) {
         buf[n++] = u->rx[t & RX_MASK];

@@ -17,9 +17,12 @@
  * delayed behind a full line buffer nor corrupt the line it arrived in.
  *
  * Overflow is never silent: a byte that finds the RX ring full is counted
- * (rx_dropped, cumulative) and latches the overflow flag; the next
- * pk_uart_read returns PK_HAL_EIO once (the caller must discard the line in
- * progress), then data again.
+ * (rx_dropped, cumulative) and latches the overflow flag together with the
+ * position in the stream where bytes went missing. pk_uart_read delivers the
+ * intact bytes received before that point, then returns PK_HAL_EIO once
+ * exactly there (the caller discards the line in progress), then the bytes
+ * received afterwards. Further losses before the first one is reported are
+ * merged into it (counted, but flagged at the first position only).
  *
  * Memory: one struct pk_uart per port, owned by the caller; no heap, no
  * globals. The same code runs on a board (ISR producer) and on the host.
@@ -64,6 +67,7 @@ struct pk_uart {
     _Atomic uint8_t tx_tail;      /**< written by the transmit side only */
     _Atomic uint32_t rx_dropped;  /**< bytes lost to a full ring (receive side) */
     _Atomic uint32_t rx_overflows;/**< overflow events (receive side) */
+    _Atomic uint8_t rx_lost_at;   /**< RX index where the first unreported loss happened */
     uint32_t rx_overflows_seen;   /**< main loop's copy: flag = overflows != seen */
     pk_uart_rt_filter filter;
     void *filter_ctx;
@@ -95,8 +99,8 @@ size_t pk_uart_rx_used(const struct pk_uart *u);
 
 /**
  * [MAIN] Take up to len received bytes.
- * @return bytes copied (0 if none), or PK_HAL_EIO once after an overflow (no
- *         bytes copied; call again for the data that follows)
+ * @return bytes copied (0 if none), or PK_HAL_EIO once at the point of an
+ *         overflow (no bytes copied; call again for the data that follows)
  */
 int pk_uart_read(struct pk_uart *u, uint8_t *buf, size_t len);
 

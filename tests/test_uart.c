@@ -45,17 +45,27 @@ static void test_the_rx_ring_holds_exactly_its_size_and_counts_every_lost_byte(v
     TH_EXPECT_EQ(pk_uart_rx_dropped(&u), 5);
     TH_EXPECT(pk_uart_rx_overflow_pending(&u));
     uint8_t buf[256];
-    /* The overflow is reported once, before any data... */
+    /* The bytes received before the loss come out intact... */
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, 100), 100);
+    for (int i = 0; i < 100; i++)
+        TH_EXPECT_EQ(buf[i], i);
+    /* ...bytes received after the loss wait behind its report... */
+    TH_EXPECT_EQ(pk_uart_rx_push(&u, 0x55), PK_UART_RX_STORED);
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_UART_RX_SIZE - 100);
+    for (int i = 100; i < PK_UART_RX_SIZE; i++)
+        TH_EXPECT_EQ(buf[i - 100], i);
+    /* ...the loss is reported once, exactly where it happened... */
+    TH_EXPECT(pk_uart_rx_overflow_pending(&u));
     TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_HAL_EIO);
     TH_EXPECT(!pk_uart_rx_overflow_pending(&u));
-    /* ...then the bytes that did fit come out intact. */
-    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_UART_RX_SIZE);
-    for (int i = 0; i < PK_UART_RX_SIZE; i++)
-        TH_EXPECT_EQ(buf[i], i);
+    /* ...then what came after. */
+    TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), 1);
+    TH_EXPECT_EQ(buf[0], 0x55);
     TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), 0);
     /* A second overflow is a second event. */
     for (int i = 0; i <= PK_UART_RX_SIZE; i++)
         pk_uart_rx_push(&u, 1);
+    TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_UART_RX_SIZE);
     TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_HAL_EIO);
     TH_EXPECT_EQ(pk_uart_rx_dropped(&u), 6);
 }
