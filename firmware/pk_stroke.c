@@ -70,14 +70,16 @@ int pk_stroke_set(struct pk_stroke *st, const struct pk_smooth_cfg *s)
 
 bool pk_stroke_is_open(const struct pk_stroke *st) { return st->open; }
 
+/* M/(2*4^k) <= T/2  <=>  M <= T*4^k: the largest M depth k covers */
+static uint64_t cap_m(pk_um_t tol_um, uint8_t k) { return (uint64_t)tol_um << (2u * k); }
+
 uint8_t pk_stroke_depth_for(uint32_t m_um, pk_um_t tol_um)
 {
-    uint64_t cap = (uint64_t)4u * (uint64_t)(tol_um > 0 ? tol_um : 1);
+    if (tol_um < 1)
+        tol_um = 1;
     uint8_t k = 0;
-    while (k < PK_MAX_DEPTH && (uint64_t)m_um > cap) {
-        cap *= 4u;
+    while (k < PK_MAX_DEPTH && (uint64_t)m_um > cap_m(tol_um, k))
         k++;
-    }
     return k;
 }
 
@@ -93,7 +95,6 @@ static void kernel_start(struct pk_stroke *st, const pk_um_t start[PK_AXES])
         c.scheme = PK_SCHEME_BSPLINE;
         c.degree = st->degree;
         c.depth = st->depth;
-        c.limit = 1;
     }
     (void)pk_refine_init(&st->k, &c); /* validated by pk_stroke_check */
     (void)pk_refine_push(&st->k, start);
@@ -117,14 +118,14 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES], uint32_t
     memcpy(st->prev, start, sizeof st->prev);
     memcpy(st->prev2, start, sizeof st->prev2);
     if (st->mode == PK_SMOOTH_TOLERANCE) {
-        /* at least depth 2 so that gentle vertices arriving later rarely split */
+        /* at least depth 2, so that gentle vertices arriving later rarely split */
         uint32_t m = d2_hint;
-        uint32_t floor_m = (uint32_t)st->tol_um * 64u;
+        uint32_t floor_m = (uint32_t)st->tol_um * 16u; /* = the depth-2 capacity */
         if (m < floor_m)
             m = floor_m;
         st->depth = pk_stroke_depth_for(m, st->tol_um);
-        uint64_t cap = (uint64_t)4u * (uint64_t)st->tol_um << (2u * st->depth);
-        st->d2_cap = (st->depth >= PK_MAX_DEPTH) ? cap * cap : cap * cap;
+        uint64_t cap = cap_m(st->tol_um, st->depth);   /* largest M this depth covers */
+        st->d2_cap = cap * cap;                          /* compared with |D2|^2 */
     }
     if (st->mode != PK_SMOOTH_OFF)
         kernel_start(st, start);
@@ -215,15 +216,14 @@ static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES])
 
 /* Distance test: is c within tol of segment a-q? (µm, 64-bit exact enough:
  * cross components are divided by |q-a| before squaring). */
-static bool near_seg(const pk_um_t a[PK_AXES], const pk_um_t q[PK_AXES], const pk_um_t c[PK_AXES],
-                     pk_um_t tol)
+static bool near_seg(const pk_um_t a[PK_AXES], const pk_um_t q[PK_AXES], uint32_t L,
+                     const pk_um_t c[PK_AXES], pk_um_t tol)
 {
     int64_t d[PK_AXES], v[PK_AXES];
     for (unsigned i = 0; i < PK_AXES; i++) {
         d[i] = (int64_t)q[i] - a[i];
         v[i] = (int64_t)c[i] - a[i];
     }
-    uint32_t L = len_q8(d);
     uint64_t t2 = (uint64_t)tol * (uint64_t)tol << 16; /* (tol in Q8)^2 */
     int64_t dot = 0;
     for (unsigned i = 0; i < PK_AXES; i++)
@@ -256,12 +256,16 @@ static bool near_seg(const pk_um_t a[PK_AXES], const pk_um_t q[PK_AXES], const p
 
 static void decimate(struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
-    pk_um_t half = st->tol_um / 2;
+    pk_um_t half = st->tol_um / 2; /* T/2; at least 1 µm (points are whole µm) */
     if (half < 1)
         half = 1;
     bool ok = st->ncand < PK_STROKE_DEC;
+    int64_t d[PK_AXES];
+    for (unsigned i = 0; i < PK_AXES; i++)
+        d[i] = (int64_t)q[i] - st->anchor[i];
+    uint32_t L = len_q8(d); /* once per new point: the chord anchor -> q */
     for (unsigned j = 0; ok && j < st->ncand; j++)
-        ok = near_seg(st->anchor, q, st->cand[j], half);
+        ok = near_seg(st->anchor, q, L, st->cand[j], half);
     if (!ok) {
         const pk_um_t *last = st->cand[st->ncand - 1u];
         emit(st, last);

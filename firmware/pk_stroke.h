@@ -9,27 +9,40 @@
  *
  *   OFF        vertices pass through unchanged (exact path, G61).
  *   FIXED      kernel with the configured scheme, degree and depth.
- *   TOLERANCE  B-spline (degree 2 or 3) with limit points, depth chosen per
- *              stroke, then a greedy decimator that merges consecutive limit
- *              points into one segment while every merged point stays within
- *              T/2 of it. Why that keeps the path within T of the limit curve:
+ *   TOLERANCE  B-spline (degree 2 or 3), depth chosen per stroke, then a
+ *              greedy decimator that merges consecutive refined points into
+ *              one segment while every merged point stays within T/2 of it.
+ *              Why that keeps the path within T of the limit curve:
  *
  *   Let P be the stroke's control polygon and M = max |P[i-1] - 2P[i] + P[i+1]|
- *   (second differences, µm). For a uniform B-spline of degree >= 2 the second
- *   derivative of the limit curve C, in the parameter where consecutive
- *   vertices are 1 apart, is a B-spline whose control points are the second
- *   differences, so |C''| <= M (convex hull). Refinement level k samples C at
- *   parameter spacing h = 2^-k; the chord between two samples is then within
- *   M h^2 / 8 = M / (8 * 4^k) of the curve (the classic sagitta bound). The
- *   depth is the smallest k with M / (8 * 4^k) <= T/2; the decimator adds at
- *   most T/2 (distance to a segment is convex, so if both ends of a sample
- *   chord are within T/2 of the merged segment, so is the whole chord).
- *   Total: within T. M is taken over the moves visible when the stroke starts
- *   (the caller's hint); a later vertex whose second difference exceeds what
- *   the depth covers splits the stroke there, as does a corner turning by
- *   more than sharp_turn_deg (kept sharp). The clamped ends use non-uniform
- *   knots where the bound is not proven; tests/test_motion_stroke.c measures
- *   the deviation against the kernel's depth-8 limit curve instead.
+ *   (second differences, µm). Lane-Riesenfeld refinement of degree 2 or 3
+ *   divides the second differences by 4 per level (e.g. cubic: the new
+ *   differences are D2/4 and (D2[i] + D2[i+1])/8), so the level-k polygon Q
+ *   has |D2 Q| <= M / 4^k. Away from the ends the uniform B-spline stays
+ *   close to its control polygon: quadratic within |D2 Q|/8 (edge midpoints
+ *   lie on the curve, the vertex is |D2 Q|/8 from it), cubic within about
+ *   |D2 Q|/6 (a vertex is |D2 Q|/6 from its limit point
+ *   (Q[i-1] + 4Q[i] + Q[i+1])/6). Near a clamped end the knots are not uniform
+ *   and the constant is larger: tests/test_motion_stroke.c measures up to
+ *   0.48 M/4^k there (cubic), which is why the rule uses 1/2:
+ *
+ *       dist(level-k polygon, limit curve) <= M / (2 * 4^k)
+ *
+ *   (checked per level, both directions, on several shapes in the tests; a
+ *   proof for the clamped ends is not given). The depth is the smallest k
+ *   with M / (2 * 4^k) <= T/2, i.e. M <= T * 4^k. The decimator adds at most
+ *   T/2: distance to a segment is convex, so if both ends of a polygon edge
+ *   are within T/2 of the merged segment, so is the edge, and every point of
+ *   the segment is within T/2 of the polygon piece that projects onto it.
+ *   Total: within T (plus the kernel's rounding to whole µm, < 1 µm).
+ *   M is taken over the moves visible when the stroke starts (the caller's
+ *   hint, at least the capacity of depth 2); a later vertex whose second
+ *   difference exceeds what the depth covers splits the stroke there, as does
+ *   a corner turning by more than sharp_turn_deg (kept sharp). The
+ *   decimator holds at most PK_STROKE_DEC points, so a straight run longer
+ *   than that is cut into pieces of PK_STROKE_DEC refined points.
+ *   (With limit masks for open strokes in the kernel, points on the curve
+ *   would tighten this; the kernel on main has them for closed curves only.)
  *
  * Calling context: MAIN only. No heap; the kernel state lives inside.
  */
@@ -42,7 +55,7 @@
 
 /** Limit points the decimator may hold back (bounds its latency and work). */
 #ifndef PK_STROKE_DEC
-#define PK_STROKE_DEC 32
+#define PK_STROKE_DEC 64
 #endif
 
 /* Smoothing policy type, shared with pk_motion.h. */
@@ -123,8 +136,8 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES]);
 void pk_stroke_reset(struct pk_stroke *st);
 
 /** TOLERANCE: depth used for a second-difference bound M (µm) and tolerance
- *  T (µm): smallest k with M <= 4 * T * 4^k (i.e. M/(8*4^k) <= T/2),
- *  capped at PK_MAX_DEPTH. Exposed for tests. */
+ *  T (µm): smallest k with M / (2 * 4^k) <= T/2, capped at PK_MAX_DEPTH.
+ *  Exposed for tests. */
 uint8_t pk_stroke_depth_for(uint32_t m_um, pk_um_t tol_um);
 
 #endif
