@@ -26,12 +26,13 @@ static const char sim_usage[] =
     "  --svg OUT        draw the commanded path (wide, light) and the executed path\n"
     "                   decoded from the step pulses (thin, dark); pen-up moves dashed\n"
     "  --trace OUT.csv  write every pin edge (tick, time, signal, raw level)\n"
-    "  --config FILE    machine settings, Grbl-style `$N=value` lines:\n"
-    "                   $0 step pulse us, $29 dir set-up us, $11 junction deviation mm,\n"
+    "  --config FILE    machine settings, Grbl-style `$N=value` lines (as `$$` prints):\n"
+    "                   $0 step pulse us, $11 junction deviation mm, $12 tolerance mm,\n"
     "                   $100-102 steps/mm, $110-112 max rate mm/min, $120-122 accel mm/s^2,\n"
-    "                   $130-132 travel mm, $300 smoothing 0 off/1 fixed/2 tolerance,\n"
-    "                   $301 tolerance mm, $302 sharp corner deg, $303 degree, $304 depth,\n"
-    "                   $305 pen settle ms, $306 axes\n"
+    "                   $130-132 travel mm, $200 smoothing 0 off/1 fixed/2 tolerance,\n"
+    "                   $201 scheme 0 B-spline/1 DLG, $202 degree, $203 depth,\n"
+    "                   $204 sharp corner deg, $205 pen settle ms, $206 dir set-up us\n"
+    "  --axes N         axes driven, 2 or 3 (default 3)\n"
     "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
@@ -324,6 +325,7 @@ int cmd_sim(int argc, char **argv)
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
     int json = 0, exact = 0;
     double tol = -1.0, feed = -1.0;
+    int axes_opt = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int more = i + 1 < argc;
@@ -346,6 +348,8 @@ int cmd_sim(int argc, char **argv)
             tol = strtod(argv[++i], NULL);
         } else if (!strcmp(a, "--feed") && more) {
             feed = strtod(argv[++i], NULL);
+        } else if (!strcmp(a, "--axes") && more) {
+            axes_opt = atoi(argv[++i]);
         } else if (a[0] == '-' && a[1] != '\0') {
             fprintf(stderr, "plotkin sim: unknown or incomplete option '%s'\n\n%s", a, sim_usage);
             return 2;
@@ -398,6 +402,8 @@ int cmd_sim(int argc, char **argv)
     }
     if (feed > 0.0)
         cfg.polyline_feed = feed;
+    if (axes_opt != 0)
+        cfg.axes = (unsigned)axes_opt;
 
     size_t len;
     char *text = read_all(file, &len);

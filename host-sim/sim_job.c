@@ -14,15 +14,15 @@
 void pk_sim_cfg_default(struct pk_sim_cfg *c)
 {
     memset(c, 0, sizeof *c);
-    c->axes = 2;
+    c->axes = PK_AXES;
     for (int i = 0; i < 3; i++) {
         c->steps_per_mm[i] = 80.0;
-        c->max_rate[i] = i < 2 ? 6000.0 : 1000.0;
-        c->accel[i] = i < 2 ? 1500.0 : 500.0;
-        c->travel[i] = i < 2 ? 500.0 : 50.0;
+        c->max_rate[i] = i < 2 ? 6000.0 : 1500.0;
+        c->accel[i] = i < 2 ? 1000.0 : 500.0;
+        c->travel[i] = i < 2 ? 300.0 : 50.0;
     }
     c->junction_dev = 0.01;
-    c->step_pulse_us = 2.0;
+    c->step_pulse_us = 10.0;
     c->dir_setup_us = 1.0;
     c->smooth_mode = PK_SMOOTH_TOLERANCE;
     c->tolerance = 0.02;
@@ -48,7 +48,7 @@ static int failf(char *err, size_t errlen, const char *fmt, ...)
 /* Grbl 1.1 settings plotkin has no use for: accepted, ignored. */
 static int grbl_ignored(unsigned n)
 {
-    static const unsigned ign[] = { 1, 2, 3, 4, 5, 6, 10, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27,
+    static const unsigned ign[] = { 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 24, 25, 26, 27,
                                     30, 31, 32 };
     for (size_t i = 0; i < sizeof ign / sizeof ign[0]; i++)
         if (ign[i] == n)
@@ -97,19 +97,19 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
             return failf(err, errlen, "line %u: $%lu needs a non-negative number", lineno, num);
         switch (num) {
         case 0: c->step_pulse_us = v; break;
-        case 29: c->dir_setup_us = v; break;
         case 11: c->junction_dev = v; break;
+        case 12: c->tolerance = v; break;
         case 100: case 101: case 102: c->steps_per_mm[num - 100] = v; break;
         case 110: case 111: case 112: c->max_rate[num - 110] = v; break;
         case 120: case 121: case 122: c->accel[num - 120] = v; break;
         case 130: case 131: case 132: c->travel[num - 130] = v; break;
-        case 300: c->smooth_mode = (unsigned)v; break;
-        case 301: c->tolerance = v; break;
-        case 302: c->sharp_deg = (unsigned)v; break;
-        case 303: c->degree = (unsigned)v; break;
-        case 304: c->depth = (unsigned)v; break;
-        case 305: c->pen_settle_ms = (unsigned)v; break;
-        case 306: c->axes = (unsigned)v; break;
+        case 200: c->smooth_mode = (unsigned)v; break;
+        case 201: c->scheme = (unsigned)v; break;
+        case 202: c->degree = (unsigned)v; break;
+        case 203: c->depth = (unsigned)v; break;
+        case 204: c->sharp_deg = (unsigned)v; break;
+        case 205: c->pen_settle_ms = (unsigned)v; break;
+        case 206: c->dir_setup_us = v; break;
         default:
             if (!grbl_ignored((unsigned)num))
                 return failf(err, errlen, "line %u: unknown setting $%lu", lineno, num);
@@ -125,7 +125,7 @@ int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *o, char 
 {
     memset(o, 0, sizeof *o);
     if (c->axes < 2u || c->axes > PK_AXES)
-        return failf(err, errlen, "$306 axes must be 2..%d", PK_AXES);
+        return failf(err, errlen, "axes must be 2..%d", PK_AXES);
     o->axes = (uint8_t)c->axes;
     for (unsigned i = 0; i < PK_AXES && i < 3u; i++) {
         double spmm = c->steps_per_mm[i] * 65536.0;
@@ -149,7 +149,7 @@ int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *o, char 
     o->pen_settle_ms = c->pen_settle_ms;
     o->pen_down_level = 1;
     o->smooth.mode = (uint8_t)c->smooth_mode;
-    o->smooth.scheme = PK_SCHEME_BSPLINE;
+    o->smooth.scheme = (uint8_t)c->scheme;
     o->smooth.degree = (uint8_t)c->degree;
     o->smooth.depth = (uint8_t)c->depth;
     o->smooth.tolerance_um = (pk_um_t)llround(c->tolerance * 1000.0);
@@ -259,7 +259,7 @@ void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk
     for (int i = 0; i < PK_GC_AXES; i++) {
         double t = cfg->travel[i] * 1000.0;
         pk_um_t tu = t > PK_UM_MAX ? PK_UM_MAX : (pk_um_t)llround(t);
-        lim.min_um[i] = -tu;
+        lim.min_um[i] = i < 2 ? 0 : -tu; /* as the Grbl engine: X, Y in [0, $13x] */
         lim.max_um[i] = tu;
     }
     pk_gcode_state_init(&j->gc, &lim, zero);
@@ -491,7 +491,7 @@ double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, cons
     size_t k = 0;
     double worst = 0.0;
     for (size_t i = 0; i < n; i++) {
-        size_t lo = k >= 4u ? k - 4u : 0u, hi = k + 64u < j->n_moves ? k + 64u : j->n_moves;
+        size_t lo = k >= 64u ? k - 64u : 0u, hi = k + 64u < j->n_moves ? k + 64u : j->n_moves;
         double best = INFINITY;
         size_t bk = k;
         for (size_t q = lo; q < hi; q++) {
@@ -501,7 +501,7 @@ double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, cons
                 bk = q;
             }
         }
-        if (best > 50.0) { /* lost the thread: search everything */
+        if (best > 2.0) { /* maybe a closer move outside the window: search all */
             for (size_t q = 0; q < j->n_moves; q++) {
                 double d = seg_dist(&j->moves[q], x[i], y[i]);
                 if (d < best) {

@@ -10,7 +10,9 @@
  * (hal/posix/pk_posix_timer.h) on real time.
  *
  * Machine settings come in Grbl's `$N=value` form (struct pk_sim_cfg, with a
- * typical pen plotter as the default). The job records the commanded path
+ * typical pen plotter as the default), with the numbers and defaults of the
+ * firmware's Grbl engine (firmware/pk_grbl.c), so a `$$` dump from
+ * `plotkin serve` or a board can be used as is. The job records the commanded path
  * (every move it requested, pen state included) for the SVG and the
  * deviation check, and counts lines, errors, alarms and executed segments.
  *
@@ -28,20 +30,21 @@
 
 /** Machine configuration in user units (the `$N=value` settings). */
 struct pk_sim_cfg {
-    unsigned axes;                 /**< $306 axes driven (2 or 3), default 2 */
+    unsigned axes;                 /**< axes driven (2..PK_AXES), default PK_AXES (not a $ setting) */
     double steps_per_mm[3];        /**< $100-$102, default 80 */
-    double max_rate[3];            /**< $110-$112 mm/min, default 6000 6000 1000 */
-    double accel[3];               /**< $120-$122 mm/s^2, default 1500 1500 500 */
-    double travel[3];              /**< $130-$132 mm: coordinates within ±travel */
+    double max_rate[3];            /**< $110-$112 mm/min, default 6000 6000 1500 */
+    double accel[3];               /**< $120-$122 mm/s^2, default 1000 1000 500 */
+    double travel[3];              /**< $130-$132 mm: X, Y in [0, travel], Z within ±travel */
     double junction_dev;           /**< $11 mm, default 0.01 */
-    double step_pulse_us;          /**< $0 µs, default 2 */
-    double dir_setup_us;           /**< $29 µs (grblHAL's step pulse delay), default 1 */
-    unsigned smooth_mode;          /**< $300 0 off (G61), 1 fixed, 2 tolerance; default 2 */
-    double tolerance;              /**< $301 mm, default 0.02 */
-    unsigned sharp_deg;            /**< $302 corners turning more than this stay sharp, default 60 */
-    unsigned degree;               /**< $303 B-spline degree, default 3 (fixed mode: 2..7) */
-    unsigned depth;                /**< $304 fixed mode depth, default 3 */
-    unsigned pen_settle_ms;        /**< $305 dwell after a pen change, default 50 */
+    double step_pulse_us;          /**< $0 µs, default 10 */
+    double tolerance;              /**< $12 smoothing tolerance mm, default 0.02 */
+    unsigned smooth_mode;          /**< $200 0 off (G61), 1 fixed, 2 tolerance; default 2 */
+    unsigned scheme;               /**< $201 0 B-spline, 1 DLG 4-point (fixed mode) */
+    unsigned degree;               /**< $202 B-spline degree, default 3 */
+    unsigned depth;                /**< $203 fixed mode depth, default 3 */
+    unsigned sharp_deg;            /**< $204 corners turning more than this stay sharp, default 60 */
+    unsigned pen_settle_ms;        /**< $205 dwell after a pen change, default 50 */
+    double dir_setup_us;           /**< $206 direction set-up µs, default 1 */
     double polyline_feed;          /**< feed for plain polyline files, mm/min, default 3000 */
     uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
 };
@@ -119,8 +122,9 @@ void pk_sim_job_free(struct pk_sim_job *j);
 
 /**
  * Largest distance (µm) from any of the points (x[i], y[i]) (µm) to the
- * commanded path (every move, both pen states). Points are visited in order
- * and matched against a window of moves around the last match, so this is
+ * commanded path (every move, both pen states). Points are matched against a
+ * window of moves around the previous match first, and against every move
+ * when that finds nothing within 2 µm, so the result is exact and close to
  * linear in the path length. Returns -1 if there are no moves.
  */
 double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y,
