@@ -256,7 +256,7 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
             fmin(w, 300.0), fmin(w, 300.0) * h / w, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
     fprintf(f, "<title>%s</title>\n<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n",
             title, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
-    /* commanded path: pen-down feed moves solid, the rest dashed */
+    /* commanded path: pen-up moves dashed (drawn first, underneath), pen-down solid */
     fprintf(f, "<g fill=\"none\" stroke=\"#8ab4f8\" stroke-width=\"%.3f\" stroke-linecap=\"round\" "
                "stroke-linejoin=\"round\">\n", 3 * sw);
     for (int pass = 0; pass < 2; pass++) {
@@ -264,14 +264,15 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
         for (size_t i = 0; i < j->n_moves; i++) {
             const struct pk_sim_move *mv = &j->moves[i];
             int down = mv->pen && !mv->rapid;
-            if (down != (pass == 0)) {
+            if (down != (pass == 1)) {
                 if (open)
                     fputs("\"/>\n", f);
                 open = 0;
                 continue;
             }
             if (!open) {
-                fprintf(f, "<path %sd=\"M%.3f %.3f", pass ? "stroke-dasharray=\"4 3\" stroke-width=\"1\" " : "",
+                fprintf(f, "<path %sd=\"M%.3f %.3f",
+                        pass ? "" : "stroke=\"#c6dafc\" stroke-dasharray=\"4 3\" stroke-width=\"1\" ",
                         mv->a[0] / 1000.0, -mv->a[1] / 1000.0);
                 open = 1;
             }
@@ -281,35 +282,39 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
             fputs("\"/>\n", f);
     }
     fputs("</g>\n", f);
-    /* executed path from the decoded steps */
+    /* executed path from the decoded steps: pen up (dotted, underneath), then pen down */
     fprintf(f, "<g fill=\"none\" stroke=\"#202124\" stroke-width=\"%.3f\" stroke-linejoin=\"round\">\n", sw);
-    int64_t p[PK_HAL_MAX_AXES] = { 0 };
-    double lx = 0, ly = 0;
-    int open = 0, pen = -1;
-    for (size_t i = 0; i <= r->dec.n_ev; i++) {
-        int last = i == r->dec.n_ev;
-        int pd = last ? pen : r->dec.ev[i].pen;
-        if (!last)
+    for (int pass = 0; pass < 2; pass++) {
+        int64_t p[PK_HAL_MAX_AXES] = { 0 };
+        double lx = 0, ly = 0;
+        int open = 0;
+        for (size_t i = 0; i < r->dec.n_ev; i++) {
+            int in = r->dec.ev[i].pen == pass;
+            double px = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, py = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
             p[r->dec.ev[i].axis] += r->dec.ev[i].dir;
-        double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
-        if (pd != pen || last) {
-            if (open)
-                fprintf(f, " L%.3f %.3f\"/>\n", x, -y);
-            open = 0;
-            pen = pd;
+            double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
+            if (!in) {
+                if (open)
+                    fprintf(f, " L%.3f %.3f\"/>\n", px, -py);
+                open = 0;
+                continue;
+            }
+            if (!open) {
+                fprintf(f, "<path %sd=\"M%.3f %.3f",
+                        pass ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ", px, -py);
+                open = 1;
+                lx = px;
+                ly = py;
+            }
+            if (hypot(x - lx, y - ly) >= 0.1) {
+                fprintf(f, " L%.3f %.3f", x, -y);
+                lx = x;
+                ly = y;
+            }
         }
-        if (last)
-            break;
-        if (!open) {
-            fprintf(f, "<path %sd=\"M%.3f %.3f",
-                    pen ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ", x, -y);
-            open = 1;
-            lx = x;
-            ly = y;
-        } else if (hypot(x - lx, y - ly) >= 0.1) {
-            fprintf(f, " L%.3f %.3f", x, -y);
-            lx = x;
-            ly = y;
+        if (open) {
+            double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
+            fprintf(f, " L%.3f %.3f\"/>\n", x, -y);
         }
     }
     fputs("</g>\n", f);
