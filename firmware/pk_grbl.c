@@ -189,7 +189,8 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
     switch (b) {
     case '?':
     case '!':
-    case '~': {
+    case '~':
+    case 0x85: {
         uint8_t h = g->rt_head;
         if ((uint8_t)(h - g->rt_tail) < sizeof g->rt_buf) {
             g->rt_buf[h & (sizeof g->rt_buf - 1u)] = b;
@@ -203,14 +204,14 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
         g->rt_resets = (uint8_t)(g->rt_resets + 1u);
         return 1;
     default:
-        if (b == 0x84 || b == 0x85 || b == 0x87 || (b >= 0x90 && b <= 0x9D) || b == 0xA0 ||
+        if (b == 0x84 || b == 0x87 || (b >= 0x90 && b <= 0x9D) || b == 0xA0 ||
             b == 0xA1)
             return 1; /* Grbl's extended realtime commands: claimed, not implemented */
         return 0;
     }
 }
 
-static int mstate(struct pk_grbl *g) { return g->mo->state(g->m); }
+static int mstate(struct pk_grbl *g) { return g->mo.state(g->m); }
 
 static void greet(struct pk_grbl *g)
 {
@@ -222,13 +223,15 @@ static void greet(struct pk_grbl *g)
 static void status_report(struct pk_grbl *g)
 {
     pk_um_t pos[PK_GC_AXES];
-    g->mo->position_um(g->m, pos);
+    g->mo.position_um(g->m, pos);
     int st = mstate(g);
     puts_(g, "<");
     if (st == PK_GRBL_M_ALARM || g->alarm)
         puts_(g, "Alarm");
     else if (g->check_mode)
         puts_(g, "Check");
+    else if (g->jogging && (st == PK_GRBL_M_RUN || g->cmd_todo))
+        puts_(g, "Jog");
     else if (st == PK_GRBL_M_RUN)
         puts_(g, "Run");
     else if (st == PK_GRBL_M_HOLDING)
@@ -240,12 +243,12 @@ static void status_report(struct pk_grbl *g)
     puts_(g, "|MPos:");
     put_xyz(g, pos);
     puts_(g, "|Bf:");
-    put_u32(g, g->mo->blocks_free(g->m));
+    put_u32(g, g->mo.blocks_free(g->m));
     puts_(g, ",");
     size_t used = g->io.rx_used ? g->io.rx_used(g->io.ctx) : 0;
     put_u32(g, used >= PK_GRBL_RX_ADVERTISED ? 0u : (uint32_t)(PK_GRBL_RX_ADVERTISED - used));
     puts_(g, "|FS:");
-    put_u32(g, (uint32_t)pk_div_round64(g->mo->speed_umpm(g->m), 1000));
+    put_u32(g, (uint32_t)pk_div_round64(g->mo.speed_umpm(g->m), 1000));
     puts_(g, ",0");
     if (g->gc.offset_um[0] || g->gc.offset_um[1] || g->gc.offset_um[2]) {
         puts_(g, "|WCO:");
@@ -259,7 +262,7 @@ static void reset_gcode_state(struct pk_grbl *g)
     struct pk_gc_limits lim;
     pk_um_t pos[PK_GC_AXES];
     limits_from_settings(&g->set, &lim);
-    g->mo->position_um(g->m, pos);
+    g->mo.position_um(g->m, pos);
     pk_gcode_state_init(&g->gc, &lim, pos);
 }
 
@@ -272,11 +275,13 @@ static void drop_input(struct pk_grbl *g)
     g->bez_on = 0;
     g->pt_held = 0;
     g->report = R_NONE;
+    g->jogging = 0;
+    g->jog_cancel = 0;
 }
 
 static void soft_reset(struct pk_grbl *g)
 {
-    int cut = g->mo->reset(g->m);
+    int cut = g->mo.reset(g->m);
     g->stats.resets++;
     drop_input(g);
     /* Like Grbl, forget what was received but not yet read: a sender
@@ -311,9 +316,12 @@ static void realtime(struct pk_grbl *g)
             g->status_due = 1;
         } else if (b == '!') {
             if (!g->check_mode)
-                g->mo->hold(g->m);
+                g->mo.hold(g->m);
         } else if (b == '~') {
-            g->mo->resume(g->m);
+            g->mo.resume(g->m);
+        } else if (b == 0x85 && g->jogging) {
+            g->mo.hold(g->m);
+            g->jog_cancel = 1;
         }
     }
 }
@@ -371,7 +379,7 @@ static int continue_report(struct pk_grbl *g)
         }
         case R_INFO:
             puts_(g, "[VER:1.1h." PK_GRBL_VERSION_STR ":]\r\n[OPT:,");
-            put_u32(g, g->mo->blocks_total(g->m));
+            put_u32(g, g->mo.blocks_total(g->m));
             puts_(g, ",");
             put_u32(g, PK_GRBL_RX_ADVERTISED);
             puts_(g, "]\r\n");
@@ -389,7 +397,7 @@ static int continue_report(struct pk_grbl *g)
             puts_(g, " S0]\r\n");
             goto done;
         case R_HELP:
-            puts_(g, "[HLP:$$ $# $G $I $C $X $x=val ~ ! ? ctrl-x]\r\n");
+            puts_(g, "[HLP:$$ $# $G $I $C $X $J=line $x=val ~ ! ? ctrl-x]\r\n");
             goto done;
         default:
             goto done;
@@ -438,16 +446,56 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
         return 8;
     struct pk_grbl_settings next = g->set;
     next.v[idx] = val;
-    if (g->mo->configure(g->m, &next) != 0)
+    if (g->mo.configure(g->m, &next) != 0)
         return 3;
     g->set = next;
     /* New travel limits; the machine may also have restarted its position. */
     struct pk_gc_limits lim;
     limits_from_settings(&g->set, &lim);
     g->gc.lim = lim;
-    g->mo->position_um(g->m, g->gc.pos_um);
+    g->mo.position_um(g->m, g->gc.pos_um);
     g->pen_now = 2;
     return 0;
+}
+
+static void run_pending(struct pk_grbl *g);
+
+/* "$J=<words>": a jog move. Returns a Grbl status; on success the move is
+ * the pending command (answered once handed to the machine). */
+static int jog(struct pk_grbl *g, const uint8_t *s, size_t n)
+{
+    int st = mstate(g);
+    if (g->alarm || st == PK_GRBL_M_ALARM)
+        return 9;
+    if (!(st == PK_GRBL_M_IDLE || (g->jogging && st == PK_GRBL_M_RUN)) || g->jog_cancel)
+        return 8;
+    struct pk_gc_block b;
+    int rc = pk_gcode_parse(s, n, &b);
+    if (rc != PK_GC_OK)
+        return rc;
+    const uint16_t groups_ok = PK_GC_GBIT(PK_GC_G_DISTANCE) | PK_GC_GBIT(PK_GC_G_UNITS);
+    const uint16_t words_ok = PK_GC_AXIS_WORDS | PK_GC_WBIT(PK_GC_W_F) | PK_GC_WBIT(PK_GC_W_N);
+    if ((b.groups & ~groups_ok) || (b.words & ~words_ok))
+        return 16;
+    if (!(b.words & PK_GC_WBIT(PK_GC_W_F)))
+        return PK_GC_E_UNDEFINED_FEED;
+    if (!(b.words & PK_GC_AXIS_WORDS))
+        return PK_GC_E_NO_AXIS_WORDS;
+    /* A jog changes the position, never the program's modal state. */
+    struct pk_gc_state tmp = g->gc;
+    b.groups |= PK_GC_GBIT(PK_GC_G_MOTION);
+    b.motion = PK_GC_MOT_LINEAR;
+    rc = pk_gcode_interp(&tmp, &b, &g->cmd);
+    if (rc != PK_GC_OK)
+        return rc;
+    if (g->check_mode)
+        return 0;
+    for (int a = 0; a < PK_GC_AXES; a++)
+        g->gc.pos_um[a] = tmp.pos_um[a];
+    g->gc.cubic_prev = 0;
+    g->jogging = 1;
+    g->cmd_todo = PK_GC_DO_MOVE;
+    return -1; /* pending */
 }
 
 /* A line starting with '$' (s excludes leading blanks). Answers it, or starts
@@ -489,7 +537,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *s, size_t n)
     }
     if (k == 1 && c[0] == 'X') {
         if (mstate(g) == PK_GRBL_M_ALARM) {
-            g->mo->reset(g->m);
+            g->mo.reset(g->m);
             reset_gcode_state(g);
             g->pen_now = 2;
         }
@@ -514,6 +562,17 @@ static void system_line(struct pk_grbl *g, const uint8_t *s, size_t n)
             puts_(g, "[MSG:Enabled]\r\n");
             rc = 0;
         }
+    } else if (k >= 2 && c[0] == 'J' && c[1] == '=') {
+        size_t eq = 0;
+        while (s[eq] != '=')
+            eq++;
+        rc = jog(g, s + eq + 1, n - eq - 1);
+        if (rc < 0) {
+            g->bez_on = 0;
+            g->pt_held = 0;
+            run_pending(g);
+            return;
+        }
     } else if (k == 1 && c[0] == 'H') {
         rc = 5; /* homing not enabled */
     } else if (k >= 2 && c[0] >= '0' && c[0] <= '9') {
@@ -531,7 +590,7 @@ static int advance(struct pk_grbl *g)
     int rc;
     if (g->cmd_todo & PK_GC_DO_PEN) {
         if (g->pen_now != c->pen) {
-            rc = g->mo->pen(g->m, c->pen == PK_GC_PEN_DOWN);
+            rc = g->mo.pen(g->m, c->pen == PK_GC_PEN_DOWN);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
@@ -541,7 +600,7 @@ static int advance(struct pk_grbl *g)
         g->cmd_todo &= (uint8_t)~PK_GC_DO_PEN;
     }
     if (g->cmd_todo & PK_GC_DO_DWELL) {
-        rc = g->mo->dwell(g->m, c->dwell_ms);
+        rc = g->mo.dwell(g->m, c->dwell_ms);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -550,7 +609,7 @@ static int advance(struct pk_grbl *g)
     }
     if (g->cmd_todo & PK_GC_DO_PATH) {
         pk_um_t tol = c->tol_um > 0 ? c->tol_um : mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM);
-        rc = g->mo->smoothing(g->m, c->path == PK_GC_PATH_EXACT, tol);
+        rc = g->mo.smoothing(g->m, c->path == PK_GC_PATH_EXACT, tol);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -580,7 +639,7 @@ static int advance(struct pk_grbl *g)
                     g->pt_held = 1;
                 }
                 pk_um_t t[PK_GC_AXES] = { g->pt[0], g->pt[1], c->target_um[2] };
-                rc = g->mo->move(g->m, t, c->feed_umpm, 0);
+                rc = g->mo.move(g->m, t, c->feed_umpm, 0);
                 if (rc == PK_GRBL_M_FULL)
                     return 0;
                 if (rc != PK_GRBL_M_OK)
@@ -590,7 +649,7 @@ static int advance(struct pk_grbl *g)
             }
             g->bez_on = 0;
         } else {
-            rc = g->mo->move(g->m, c->target_um, c->feed_umpm, c->motion == PK_GC_MOT_RAPID);
+            rc = g->mo.move(g->m, c->target_um, c->feed_umpm, c->motion == PK_GC_MOT_RAPID);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
@@ -601,14 +660,14 @@ static int advance(struct pk_grbl *g)
     }
     if (g->cmd_todo & PK_GC_DO_STOP) {
         if (g->pen_now != 0) {
-            rc = g->mo->pen(g->m, 0);
+            rc = g->mo.pen(g->m, 0);
             if (rc == PK_GRBL_M_FULL)
                 return 0;
             if (rc != PK_GRBL_M_OK)
                 return -1;
             g->pen_now = 0;
         }
-        rc = g->mo->end(g->m);
+        rc = g->mo.end(g->m);
         if (rc == PK_GRBL_M_FULL)
             return 0;
         if (rc != PK_GRBL_M_OK)
@@ -665,7 +724,7 @@ static void process_line(struct pk_grbl *g)
         answer(g, 0); /* empty or comment line: ok, as Grbl answers */
         return;
     }
-    if (g->alarm || mstate(g) == PK_GRBL_M_ALARM) {
+    if (g->alarm || mstate(g) == PK_GRBL_M_ALARM || g->jogging) {
         answer(g, 9);
         return;
     }
@@ -720,7 +779,7 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
 {
     memset(g, 0, sizeof *g);
     g->io = *io;
-    g->mo = mo;
+    g->mo = *mo;
     g->m = m;
     if (set)
         g->set = *set;
@@ -752,6 +811,24 @@ void pk_grbl_poll(struct pk_grbl *g)
         if (g->cmd_todo) {
             g->cmd_todo = 0;
             answer(g, 9);
+        }
+    }
+    if (g->jogging) {
+        int st = mstate(g);
+        if (g->jog_cancel && (st == PK_GRBL_M_HOLD || st == PK_GRBL_M_IDLE)) {
+            /* Stopped within the acceleration limit: now drop what is left
+             * of the jog (no alarm: nothing was cut while moving). */
+            g->mo.reset(g->m);
+            g->pen_now = 2;
+            g->mo.position_um(g->m, g->gc.pos_um);
+            if (g->cmd_todo) {
+                g->cmd_todo = 0;
+                answer(g, 0);
+            }
+            g->jogging = 0;
+            g->jog_cancel = 0;
+        } else if (!g->jog_cancel && st == PK_GRBL_M_IDLE && g->cmd_todo == 0) {
+            g->jogging = 0;
         }
     }
     flush(g);

@@ -157,7 +157,22 @@ static int op_configure(void *ctx, const struct pk_grbl_settings *s)
     return 0;
 }
 
-const struct pk_grbl_machine_ops pk_grbl_motion_ops = {
-    op_move, op_pen, op_dwell, op_smoothing, op_end, op_hold, op_resume, op_reset,
-    op_position, op_state, op_blocks_free, op_blocks_total, op_speed, op_configure,
-};
+/* A function rather than a const table: a table of pointers would be
+ * writable (relocated) data, which the firmware never holds. */
+void pk_grbl_motion_ops(struct pk_grbl_machine_ops *o)
+{
+    o->move = op_move;
+    o->pen = op_pen;
+    o->dwell = op_dwell;
+    o->smoothing = op_smoothing;
+    o->end = op_end;
+    o->hold = op_hold;
+    o->resume = op_resume;
+    o->reset = op_reset;
+    o->position_um = op_position;
+    o->state = op_state;
+    o->blocks_free = op_blocks_free;
+    o->blocks_total = op_blocks_total;
+    o->speed_umpm = op_speed;
+    o->configure = op_configure;
+}

@@ -12,7 +12,9 @@
  *
  * Usage:
  *     struct pk_grbl_motion gm = { &machine, &hal };
- *     pk_grbl_init(&g, &io, &pk_grbl_motion_ops, &gm, NULL);
+ *     struct pk_grbl_machine_ops ops;
+ *     pk_grbl_motion_ops(&ops);
+ *     pk_grbl_init(&g, &io, &ops, &gm, NULL);
  * Calling context: MAIN (as the engine).
  */
 #ifndef PLOTKIN_PK_GRBL_MOTION_H
@@ -29,8 +31,9 @@ struct pk_grbl_motion {
     int ready;                   /**< the machine has been initialised (private) */
 };
 
-/** The ops table (ctx = struct pk_grbl_motion). */
-extern const struct pk_grbl_machine_ops pk_grbl_motion_ops;
+/** Fill *ops with the adapter's machine ops (ctx = struct pk_grbl_motion).
+ *  The engine copies the table at init, so *ops may be a local. */
+void pk_grbl_motion_ops(struct pk_grbl_machine_ops *ops);
 
 /** Build the motion configuration the settings describe (for tests and tools). */
 void pk_grbl_motion_cfg(const struct pk_grbl_settings *s, uint32_t tick_hz,

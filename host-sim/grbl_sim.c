@@ -14,7 +14,9 @@ int pk_grbl_sim_init(struct pk_grbl_sim *s, uint32_t tick_hz, const struct pk_gr
     s->gm.hal = &s->rec.hal;
     pk_uart_init(&s->uart, pk_grbl_rt_filter, &s->g);
     struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &s->uart };
-    return pk_grbl_init(&s->g, &io, &pk_grbl_motion_ops, &s->gm, set);
+    struct pk_grbl_machine_ops ops;
+    pk_grbl_motion_ops(&ops);
+    return pk_grbl_init(&s->g, &io, &ops, &s->gm, set);
 }
 
 void pk_grbl_sim_step(struct pk_grbl_sim *s, uint64_t ticks)

@@ -61,7 +61,8 @@ static int f_smooth(void *m, int exact, pk_um_t tol)
     return f_push(m, (struct req){ REQ_SMOOTH, { exact, 0, 0 }, tol });
 }
 static int f_end(void *m) { return f_push(m, (struct req){ REQ_END, { 0 }, 0 }); }
-static void f_hold(void *m) { struct fake *f = m; if (f->qn) f->held = 1; }
+/* A hold decelerates (HOLDING) until the next executed step, then stops (HOLD). */
+static void f_hold(void *m) { struct fake *f = m; if (f->qn) f->held = 2; }
 static void f_resume(void *m) { ((struct fake *)m)->held = 0; }
 static int f_reset(void *m)
 {
@@ -76,7 +77,8 @@ static void f_pos(void *m, pk_um_t out[3]) { memcpy(out, ((struct fake *)m)->pos
 static int f_state(void *m)
 {
     struct fake *f = m;
-    return f->held ? PK_GRBL_M_HOLD : f->qn ? PK_GRBL_M_RUN : PK_GRBL_M_IDLE;
+    return f->held == 2 ? PK_GRBL_M_HOLDING : f->held ? PK_GRBL_M_HOLD
+           : f->qn ? PK_GRBL_M_RUN : PK_GRBL_M_IDLE;
 }
 static uint32_t f_free(void *m) { struct fake *f = m; return (uint32_t)(f->room - f->qn); }
 static uint32_t f_total(void *m) { return (uint32_t)((struct fake *)m)->room; }
@@ -96,6 +98,8 @@ static const struct pk_grbl_machine_ops fake_ops = {
 /* Execute one queued request (unless held). */
 static void f_step(struct fake *f)
 {
+    if (f->held == 2)
+        f->held = 1;
     if (f->held || f->qn == 0)
         return;
     struct req r = f->q[0];
@@ -301,6 +305,10 @@ static void test_hold_and_resume_act_at_once_even_mid_line(void)
     rxs("G1 X!7");     /* '!' inside a line that is still being typed */
     poll_n(1, 0);
     TH_EXPECT(R.f.held);
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strstr(R.out, "<Hold:1|") != NULL); /* still decelerating */
+    poll_n(1, 1);
     rxs("?");
     poll_n(2, 1);
     TH_EXPECT(strstr(R.out, "<Hold:0|") != NULL);
@@ -577,6 +585,82 @@ static void test_offsets_show_in_status_and_g_state(void)
     }
 }
 
+static void test_jog_moves_without_touching_modal_state_and_cancels_cleanly(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("G91\n$J=G90 G21 X10 Y5 F1000\n$J=X1 F500\n$J=G91 X-2 F500\n");
+    poll_n(3, 0);
+    int c[16];
+    TH_ASSERT_EQ(answers(c, 16), 4);
+    TH_EXPECT(c[0] == 0 && c[1] == 0 && c[2] == 0 && c[3] == 0);
+    TH_ASSERT_EQ(R.f.logn, 3);
+    TH_EXPECT(R.f.log[0].p[0] == 10000 && R.f.log[0].p[1] == 5000 && R.f.log[0].arg == 1000000);
+    /* "$J=X1" with the program in G91: jogs default to the modal distance mode. */
+    TH_EXPECT_EQ(R.f.log[1].p[0], 11000);
+    TH_EXPECT_EQ(R.f.log[2].p[0], 9000);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strncmp(R.out, "<Jog|", 5) == 0);
+    /* G-code is locked while jogging; bad jogs get their errors. */
+    rxs("G0 X1\n$J=X1\n$J=G1 X1 F10\n$J=X1 M3 F10\n$J=X400 F10\n$J=F10\n");
+    poll_n(4, 0);
+    TH_ASSERT_EQ(answers(c, 16), 6);
+    TH_EXPECT_EQ(c[0], 9);
+    TH_EXPECT_EQ(c[1], 22);
+    TH_EXPECT_EQ(c[2], 16);
+    TH_EXPECT_EQ(c[3], 16);
+    TH_EXPECT_EQ(c[4], 15);
+    TH_EXPECT_EQ(c[5], 26);
+    /* Jog cancel: a controlled stop (hold), then the rest is flushed. */
+    rxs("\x85");
+    poll_n(3, 0);
+    TH_EXPECT_EQ(R.f.held, 2);
+    TH_EXPECT_EQ(R.f.resets, 0); /* never cut while still decelerating */
+    poll_n(2, 1);
+    TH_EXPECT_EQ(R.f.qn, 0);
+    TH_EXPECT_EQ(R.f.resets, 1);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strncmp(R.out, "<Idle|", 6) == 0);
+    TH_EXPECT(strstr(R.out, "ALARM") == NULL);
+    /* The program's modes survived: still G91, so X1 is relative. */
+    rxs("G0 X1\n");
+    poll_n(2, 0);
+    TH_EXPECT_EQ(R.f.log[R.f.logn - 1].p[0], R.f.pos[0] + 1000);
+}
+
+static int fake_fault;
+static int f_state_faulty(void *m) { return fake_fault ? PK_GRBL_M_ALARM : f_state(m); }
+
+static void test_a_machine_fault_raises_alarm_1_and_locks_g_code(void)
+{
+    struct pk_grbl_machine_ops ops = fake_ops;
+    ops.state = f_state_faulty;
+    memset(&R, 0, sizeof R);
+    R.f.room = 8;
+    pk_uart_init(&R.u, pk_grbl_rt_filter, &R.g);
+    struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &R.u };
+    TH_ASSERT_EQ(pk_grbl_init(&R.g, &io, &ops, &R.f, NULL), 0);
+    fake_fault = 0;
+    poll_n(2, 0);
+    R.outn = 0;
+    fake_fault = 1;
+    rxs("G0 X1\n?");
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "ALARM:1\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "<Alarm|") != NULL);
+    TH_EXPECT(strstr(R.out, "error:9\r\n") != NULL);
+    TH_EXPECT_EQ(R.f.logn, 0);
+    fake_fault = 0; /* $X resets the machine and unlocks */
+    rxs("$X\nG0 X1\n");
+    poll_n(3, 0);
+    TH_EXPECT_EQ(R.f.logn, 1);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -596,6 +680,8 @@ int th_main(int argc, char **argv)
         TH_CASE(test_pen_dwell_smoothing_and_end_reach_the_machine_in_order),
         TH_CASE(test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly),
         TH_CASE(test_offsets_show_in_status_and_g_state),
+        TH_CASE(test_jog_moves_without_touching_modal_state_and_cancels_cleanly),
+        TH_CASE(test_a_machine_fault_raises_alarm_1_and_locks_g_code),
     };
     return th_run(cases, TH_COUNT(cases));
 }

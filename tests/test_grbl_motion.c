@@ -192,6 +192,32 @@ static void test_soft_reset_during_motion_leaves_no_queued_move(void)
     TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,2.000,0.000|", 29) == 0);
 }
 
+static void test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after(void)
+{
+    start();
+    send("$J=G91 X100 F1200\n");
+    step(1000); /* 0.5 s: about 10 mm into the jog */
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Jog|", 5) == 0);
+    outn = 0;
+    send("\x85");
+    int idle = 0;
+    for (int i = 0; i < 4000 && !idle; i++) {
+        step(1);
+        idle = machine_idle();
+    }
+    TH_ASSERT(idle);
+    TH_EXPECT(strstr(out, "ALARM") == NULL);
+    pk_um_t p[PK_AXES];
+    pk_machine_position_um(&S.m, p);
+    TH_EXPECT(p[0] > 5000 && p[0] < 50000); /* stopped well short of 100 mm */
+    send("G90 G0 X1 Y1\n");
+    TH_ASSERT(run_idle(30));
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,1.000,0.000|", 29) == 0);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -200,6 +226,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_streamed_program_ends_exactly_where_it_was_sent),
         TH_CASE(test_hold_then_resume_mid_stroke_finishes_at_the_exact_end),
         TH_CASE(test_soft_reset_during_motion_leaves_no_queued_move),
+        TH_CASE(test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_grbl_sim_free(&S);
