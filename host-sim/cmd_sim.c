@@ -37,6 +37,10 @@ static const char sim_usage[] =
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
     "\n"
+    "Speeds and accelerations are estimated per axis from the decoded step times\n"
+    "over runs of 16 steps (cornering shows as acceleration, as on the machine).\n"
+    "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
+    "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
     "setup failure; 2 bad usage.\n";
 

@@ -443,7 +443,8 @@ int pk_sim_job_main(void *arg, uint64_t now)
         return -1;
     }
     feed(j);
-    /* Count the blocks this poll queues: they are appended at the ring's
+    /* Host-side peek into the machine's motion queue (read only; the
+     * firmware API has no block counter): count the blocks this poll queues: they are appended at the ring's
      * head, so the new ones sit between the old head and the new head. */
     uint32_t head0 = (uint32_t)(m->mq.tail + m->mq.count) % PK_MQ_CAP;
     uint32_t tail0 = m->mq.tail, count0 = m->mq.count;
@@ -459,7 +460,8 @@ int pk_sim_job_main(void *arg, uint64_t now)
     }
     if (j->progress != NULL && now >= j->next_progress_tick) {
         j->next_progress_tick = now + (uint64_t)j->cfg->tick_hz * 2u;
-        fprintf(j->progress, "\rplotkin sim: line %lu, %.1f s simulated ", j->lines,
+        fprintf(j->progress, "\rplotkin sim: line %lu (%.0f%% of the file read), %.1f s simulated ",
+                j->lines, j->len ? 100.0 * (double)j->pos / (double)j->len : 100.0,
                 (double)now / (double)j->cfg->tick_hz);
         fflush(j->progress);
     }
