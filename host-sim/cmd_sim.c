@@ -286,40 +286,29 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
             fputs("\"/>\n", f);
     }
     fputs("</g>\n", f);
-    /* executed path from the decoded steps: pen up (dotted, underneath), then pen down */
+    /* executed path from the decoded steps (thinned to 0.1 mm): pen up
+     * dotted and underneath, then pen down */
     fprintf(f, "<g fill=\"none\" stroke=\"#202124\" stroke-width=\"%.3f\" stroke-linejoin=\"round\">\n", sw);
     for (int pass = 0; pass < 2; pass++) {
-        int64_t p[PK_HAL_MAX_AXES] = { 0 };
-        double lx = 0, ly = 0;
         int open = 0;
-        for (size_t i = 0; i < r->dec.n_ev; i++) {
-            int in = r->dec.ev[i].pen == pass;
-            double px = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, py = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
-            p[r->dec.ev[i].axis] += r->dec.ev[i].dir;
-            double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
-            if (!in) {
+        for (size_t i = 0; i < r->n_path; i++) {
+            const struct pk_sim_path_pt *pt = &r->path[i];
+            if (pt->pen != pass) {
                 if (open)
-                    fprintf(f, " L%.3f %.3f\"/>\n", px, -py);
+                    fputs("\"/>\n", f);
                 open = 0;
                 continue;
             }
-            if (!open) {
+            if (!open)
                 fprintf(f, "<path %sd=\"M%.3f %.3f",
-                        pass ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ", px, -py);
-                open = 1;
-                lx = px;
-                ly = py;
-            }
-            if (hypot(x - lx, y - ly) >= 0.1) {
-                fprintf(f, " L%.3f %.3f", x, -y);
-                lx = x;
-                ly = y;
-            }
+                        pass ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ",
+                        pt->x_um / 1000.0, -pt->y_um / 1000.0);
+            else
+                fprintf(f, " L%.3f %.3f", pt->x_um / 1000.0, -pt->y_um / 1000.0);
+            open = 1;
         }
-        if (open) {
-            double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
-            fprintf(f, " L%.3f %.3f\"/>\n", x, -y);
-        }
+        if (open)
+            fputs("\"/>\n", f);
     }
     fputs("</g>\n", f);
     fprintf(f, "<text x=\"%.3f\" y=\"%.3f\" font-family=\"sans-serif\" font-size=\"%.3f\" fill=\"#5f6368\">"
@@ -431,6 +420,16 @@ int cmd_sim(int argc, char **argv)
     static struct pk_sim_result r;
     struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program = text, .len = len,
                              .lim = lim, .progress = isatty(2) ? stderr : NULL };
+    FILE *tf = NULL;
+    if (trace != NULL) {
+        tf = fopen(trace, "w");
+        if (tf == NULL) {
+            fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
+            free(text);
+            return 2;
+        }
+        o.trace_csv = tf;
+    }
     int rc = pk_sim_run(&o, &r);
     int status = 0;
     if (rc != 0) {
@@ -447,16 +446,16 @@ int cmd_sim(int argc, char **argv)
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", svg, strerror(errno));
             status = 1;
         }
-        if (trace != NULL) {
-            FILE *f = fopen(trace, "w");
-            if (f == NULL || pk_trace_write_csv(&r.hw.trace, f, 1) != 0 || fclose(f) != 0) {
-                fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
-                status = 1;
-            }
+        if (tf != NULL && (ferror(tf) || fclose(tf) != 0)) {
+            fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
+            status = 1;
         }
+        tf = NULL;
         if (r.job.alarms || r.job.errors || r.dec.n_viol || r.run_status != PK_SIM_RUN_FINISHED)
             status = status ? status : 1;
     }
+    if (tf != NULL)
+        fclose(tf);
     pk_sim_result_free(&r);
     free(text);
     return status;

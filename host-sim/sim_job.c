@@ -486,6 +486,34 @@ static double seg_dist(const struct pk_sim_move *mv, double px, double py)
     return sqrt(ex * ex + ey * ey);
 }
 
+double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y)
+{
+    if (j->n_moves == 0u)
+        return -1.0;
+    size_t c = *k < j->n_moves ? *k : j->n_moves - 1u;
+    size_t lo = c >= 64u ? c - 64u : 0u, hi = c + 64u < j->n_moves ? c + 64u : j->n_moves;
+    double best = INFINITY;
+    size_t bk = c;
+    for (size_t q = lo; q < hi; q++) {
+        double d = seg_dist(&j->moves[q], x, y);
+        if (d < best) {
+            best = d;
+            bk = q;
+        }
+    }
+    if (best > 2.0) { /* maybe a closer move outside the window: search all */
+        for (size_t q = 0; q < j->n_moves; q++) {
+            double d = seg_dist(&j->moves[q], x, y);
+            if (d < best) {
+                best = d;
+                bk = q;
+            }
+        }
+    }
+    *k = bk;
+    return best;
+}
+
 double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y, size_t n)
 {
     if (j->n_moves == 0u)
@@ -493,28 +521,9 @@ double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, cons
     size_t k = 0;
     double worst = 0.0;
     for (size_t i = 0; i < n; i++) {
-        size_t lo = k >= 64u ? k - 64u : 0u, hi = k + 64u < j->n_moves ? k + 64u : j->n_moves;
-        double best = INFINITY;
-        size_t bk = k;
-        for (size_t q = lo; q < hi; q++) {
-            double d = seg_dist(&j->moves[q], x[i], y[i]);
-            if (d < best) {
-                best = d;
-                bk = q;
-            }
-        }
-        if (best > 2.0) { /* maybe a closer move outside the window: search all */
-            for (size_t q = 0; q < j->n_moves; q++) {
-                double d = seg_dist(&j->moves[q], x[i], y[i]);
-                if (d < best) {
-                    best = d;
-                    bk = q;
-                }
-            }
-        }
-        k = bk;
-        if (best > worst)
-            worst = best;
+        double d = pk_sim_job_point_deviation(j, &k, x[i], y[i]);
+        if (d > worst)
+            worst = d;
     }
     return worst;
 }

@@ -46,6 +46,8 @@ static void opts_for(struct pk_sim_opts *o, const char *chip, const struct pk_si
     o->program = prog;
     o->len = strlen(prog);
     o->lim = drv8825;
+    o->keep_trace = 1;  /* these tests read every edge and every step */
+    o->keep_events = 1;
 }
 
 static int64_t round_steps(double mm, double spmm)
