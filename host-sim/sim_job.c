@@ -501,8 +501,13 @@ double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double 
             bk = q;
         }
     }
-    if (best > 2.0) { /* maybe a closer move outside the window: search all */
-        for (size_t q = 0; q < j->n_moves; q++) {
+    if (best > 2.0 && j->n_moves > hi) {
+        /* The move executing is never far behind the newest one requested
+         * (the request FIFO, the kernel and the motion queue hold a bounded
+         * number of moves): look there too, in case the window was lured
+         * away by a crossing move. */
+        size_t q0 = j->n_moves > 256u ? j->n_moves - 256u : 0u;
+        for (size_t q = q0 > hi ? q0 : hi; q < j->n_moves; q++) {
             double d = seg_dist(&j->moves[q], x, y);
             if (d < best) {
                 best = d;
