@@ -163,10 +163,14 @@ int pk_sim_run(const struct pk_sim_opts *o, struct pk_sim_result *r)
 
 void pk_sim_result_free(struct pk_sim_result *r)
 {
+    /* Closing the hardware drives the lines idle: those edges are after the
+     * run, and the consumers (decoder, CSV file) may be gone by now. */
+    r->hw.trace.on_edge = NULL;
+    r->opts.trace_csv = NULL;
+    pk_sim_hw_close(&r->hw);
     free(r->path);
     r->path = NULL;
     r->n_path = r->cap_path = 0;
     pk_decoded_free(&r->dec);
     pk_sim_job_free(&r->job);
-    pk_sim_hw_close(&r->hw);
 }
