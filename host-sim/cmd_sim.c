@@ -36,6 +36,8 @@ static const char sim_usage[] =
     "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
+    "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
+    "                   request), set:N (the Nth write) - to see how the firmware copes\n"
     "\n"
     "Speeds and accelerations are estimated per axis from the decoded step times\n"
     "over runs of 16 steps (cornering shows as acceleration, as on the machine).\n"
@@ -323,7 +325,8 @@ int cmd_sim(int argc, char **argv)
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
     int json = 0, exact = 0;
     double tol = -1.0, feed = -1.0;
-    int axes_opt = 0;
+    int axes_opt = 0, use_fault = 0;
+    static struct pk_gpiod_mock fault;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int more = i + 1 < argc;
@@ -346,6 +349,19 @@ int cmd_sim(int argc, char **argv)
             tol = strtod(argv[++i], NULL);
         } else if (!strcmp(a, "--feed") && more) {
             feed = strtod(argv[++i], NULL);
+        } else if (!strcmp(a, "--inject") && more) {
+            const char *v = argv[++i];
+            if (!strcmp(v, "open"))
+                fault.fail_open_errno = ENODEV;
+            else if (!strncmp(v, "request:", 8) && atoi(v + 8) > 0)
+                fault.fail_request_nth = (uint32_t)atoi(v + 8);
+            else if (!strncmp(v, "set:", 4) && atoi(v + 4) > 0)
+                fault.fail_set_nth = (uint32_t)atoi(v + 4);
+            else {
+                fprintf(stderr, "plotkin sim: --inject takes open, request:N or set:N\n");
+                return 2;
+            }
+            use_fault = 1;
         } else if (!strcmp(a, "--axes") && more) {
             axes_opt = atoi(argv[++i]);
         } else if (a[0] == '-' && a[1] != '\0') {
@@ -420,6 +436,8 @@ int cmd_sim(int argc, char **argv)
     static struct pk_sim_result r;
     struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program = text, .len = len,
                              .lim = lim, .progress = isatty(2) ? stderr : NULL };
+    if (use_fault)
+        o.fault = &fault;
     FILE *tf = NULL;
     if (trace != NULL) {
         tf = fopen(trace, "w");

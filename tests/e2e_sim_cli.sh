@@ -63,6 +63,13 @@ check "1 us step pulses are flagged against DRV8825 limits, every pulse, exit 1"
 $P sim "$tmp/poly.txt" --config "$tmp/fast.conf" --driver tmc2209 >/dev/null 2>&1; rc=$?
 check "the same pulses pass TMC2209 limits" '[[ $rc -eq 0 ]]'
 
+$P sim "$EX" --inject request:1 >"$tmp/out" 2>"$tmp/err"; rc=$?
+check "a failing line request stops the run at start with a clear error" \
+  '[[ $rc -eq 1 && ! -s $tmp/out ]] && grep -q "gpiod: request step lines 0,1,2 on plotkin-sim0: Device or resource busy" "$tmp/err"'
+$P sim "$EX" --inject set:2000 --json >"$tmp/f.json" 2>/dev/null; rc=$?
+check "a failing write mid-run raises one alarm; the position is the pulses emitted" \
+  '[[ $rc -eq 1 ]] && $PY -c "import json,sys; j=json.load(open(sys.argv[1])); sys.exit(0 if j[\"alarms\"]==1 and \"gpiod: set\" in j[\"alarm_text\"] and j[\"final_steps\"]==j[\"firmware_steps\"] and 0<sum(j[\"steps\"])<100000 else 1)" "$tmp/f.json"'
+
 printf 'G21\nG1 X10 F600\nG1 Y10 Q3\nM2\n' >"$tmp/err.gcode"
 $P sim "$tmp/err.gcode" >"$tmp/out" 2>&1; rc=$?
 check "a bad G-code line is reported with its number and error, exit 1" \
