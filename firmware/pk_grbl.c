@@ -45,9 +45,9 @@ static const struct setting_def settings_table[PK_GRBL_S_COUNT] = {
     [PK_GRBL_S_STEP_PULSE_US] = { 0, 1, U6(10), U6(1), U6(1000) },
     [PK_GRBL_S_JUNCTION_MM] = { 11, 0, U6M(10), 0, U6(10) },
     [PK_GRBL_S_TOLERANCE_MM] = { 12, 0, U6M(20), U6M(1), U6(10) },
-    [PK_GRBL_S_STEPS_X] = { 100, 0, U6(80), U6M(100), U6(10000) },
-    [PK_GRBL_S_STEPS_Y] = { 101, 0, U6(80), U6M(100), U6(10000) },
-    [PK_GRBL_S_STEPS_Z] = { 102, 0, U6(80), U6M(100), U6(10000) },
+    [PK_GRBL_S_STEPS_X] = { 100, 0, U6(80), U6(1), U6(10000) },
+    [PK_GRBL_S_STEPS_Y] = { 101, 0, U6(80), U6(1), U6(10000) },
+    [PK_GRBL_S_STEPS_Z] = { 102, 0, U6(80), U6(1), U6(10000) },
     [PK_GRBL_S_RATE_X] = { 110, 0, U6(6000), U6(1), U6(60000) },
     [PK_GRBL_S_RATE_Y] = { 111, 0, U6(6000), U6(1), U6(60000) },
     [PK_GRBL_S_RATE_Z] = { 112, 0, U6(1500), U6(1), U6(60000) },
@@ -378,7 +378,7 @@ static int continue_report(struct pk_grbl *g)
             goto done;
         }
         case R_INFO:
-            puts_(g, "[VER:1.1h." PK_GRBL_VERSION_STR ":]\r\n[OPT:,");
+            puts_(g, "[VER:1.1h.plotkin-0.1:]\r\n[OPT:,");
             put_u32(g, g->mo.blocks_total(g->m));
             puts_(g, ",");
             put_u32(g, PK_GRBL_RX_ADVERTISED);
@@ -627,8 +627,11 @@ static int advance(struct pk_grbl *g)
                     p[2][0] = c->target_um[0];
                     p[2][1] = c->target_um[1];
                 }
+                /* The curve is flattened within the smoothing tolerance in
+                 * force: G64 P<tol> if one was given, else $12. */
                 pk_bez_init(&g->bez, (const pk_um_t(*)[2])p, c->motion == PK_GC_MOT_QUAD,
-                            mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
+                            g->gc.tol_um > 0 ? g->gc.tol_um
+                                             : mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
                 g->bez_on = 1;
                 g->pt_held = 0;
             }

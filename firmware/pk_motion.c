@@ -74,7 +74,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
         return PK_MOTION_EINVAL;
     if (pk_hal_check(hal) != PK_HAL_OK)
         return PK_MOTION_EHAL;
-    if (hal->tick_hz > (1u << 25) || check_cfg(cfg, hal->tick_hz) != 0)
+    if (hal->tick_hz > ((uint32_t)1 << 25) || check_cfg(cfg, hal->tick_hz) != 0)
         return PK_MOTION_EINVAL;
     memset(m, 0, sizeof *m);
     m->cfg = *cfg;

@@ -560,6 +560,20 @@ static void test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly(void)
     TH_EXPECT(cubic_end > 2);
 }
 
+static void test_g64_p_also_sets_how_finely_g5_curves_are_flattened(void)
+{
+    int n[2];
+    for (int k = 0; k < 2; k++) {
+        rig_init(64);
+        poll_n(2, 0);
+        rxs(k == 0 ? "G64 P0.1\n" : "G64 P0.001\n");
+        rxs("G0 X10 Y10\nG5 X60 Y10 I0 J40 P0 Q40 F2000\n");
+        poll_n(200, 1);
+        n[k] = R.f.logn;
+    }
+    TH_EXPECT(n[1] > 4 * n[0]); /* 100x tighter: about 10x more chords */
+}
+
 static void test_offsets_show_in_status_and_g_state(void)
 {
     rig_init(8);
@@ -633,6 +647,50 @@ static void test_jog_moves_without_touching_modal_state_and_cancels_cleanly(void
     TH_EXPECT_EQ(R.f.log[R.f.logn - 1].p[0], R.f.pos[0] + 1000);
 }
 
+/* Property: whatever bytes arrive (short of a soft reset), every line end
+ * gets exactly one answer, and the engine never stalls for good. */
+static void test_random_traffic_gets_exactly_one_answer_per_line(void)
+{
+    static const char alpha[] = "GMXYZFNPQIJST0123456789.-+ ()%;/$=\r\n\n?!~\x01\xff\x80G1X";
+    static char stream[200000];
+    uint64_t seed = 0x1234567u;
+    for (int round = 0; round < 20; round++) {
+        rig_init(1 + round % 6);
+        poll_n(2, 0);
+        size_t n = 0;
+        for (; n < 8000; n++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            stream[n] = alpha[(seed >> 33) % (sizeof alpha - 1)];
+        }
+        stream[n++] = '~';
+        stream[n++] = '\n';
+        /* Expected answers: line ends once realtime bytes are taken out. */
+        int expect = 0;
+        char prev = 0;
+        for (size_t i = 0; i < n; i++) {
+            char c = stream[i];
+            if (c == '?' || c == '!' || c == '~')
+                continue;
+            if (c == '\r' || (c == '\n' && prev != '\r'))
+                expect++;
+            prev = c;
+        }
+        R.outn = 0;
+        size_t off = 0;
+        for (int spins = 0; spins < 200000 && off < n; spins++) {
+            off += rx(stream + off, n - off);
+            poll_n(1, 1);
+            if (spins % 50 == 0)
+                rx("~", 1); /* keep feed holds from parking the run forever */
+        }
+        TH_ASSERT_EQ(off, n);
+        poll_n(2000, 1);
+        int codes[12000];
+        TH_ASSERT_EQ(answers(codes, 12000), expect);
+        TH_EXPECT_EQ(R.g.stats.lines, (uint32_t)expect);
+    }
+}
+
 static int fake_fault;
 static int f_state_faulty(void *m) { return fake_fault ? PK_GRBL_M_ALARM : f_state(m); }
 
@@ -680,8 +738,10 @@ int th_main(int argc, char **argv)
         TH_CASE(test_pen_dwell_smoothing_and_end_reach_the_machine_in_order),
         TH_CASE(test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly),
         TH_CASE(test_offsets_show_in_status_and_g_state),
+        TH_CASE(test_g64_p_also_sets_how_finely_g5_curves_are_flattened),
         TH_CASE(test_jog_moves_without_touching_modal_state_and_cancels_cleanly),
         TH_CASE(test_a_machine_fault_raises_alarm_1_and_locks_g_code),
+        TH_CASE(test_random_traffic_gets_exactly_one_answer_per_line),
     };
     return th_run(cases, TH_COUNT(cases));
 }

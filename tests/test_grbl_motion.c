@@ -218,6 +218,27 @@ static void test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after(void
     TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,1.000,0.000|", 29) == 0);
 }
 
+static void test_a_steps_per_mm_change_keeps_the_step_position_like_grbl(void)
+{
+    start();
+    send("G0 X10 Y4\n");
+    TH_ASSERT(run_idle(30));
+    send("$100=2000\n");
+    TH_ASSERT(run_idle(5));
+    char st[256];
+    final_status(st, sizeof st);
+    /* 10000 steps at 2000 steps/mm: the same place, now reported as 5 mm. */
+    TH_EXPECT(strncmp(st, "<Idle|MPos:5.000,4.000,0.000|", 29) == 0);
+    outn = 0;
+    send("G1 X20 F600\n$100=1000\n");
+    TH_ASSERT(run_idle(30));
+    TH_EXPECT_EQ(count(out, "error:8"), 1); /* refused while the X20 move runs */
+    send("G91 G0 X1\n");
+    TH_ASSERT(run_idle(30));
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:21.000,4.000,0.000|", 30) == 0);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -227,6 +248,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_hold_then_resume_mid_stroke_finishes_at_the_exact_end),
         TH_CASE(test_soft_reset_during_motion_leaves_no_queued_move),
         TH_CASE(test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after),
+        TH_CASE(test_a_steps_per_mm_change_keeps_the_step_position_like_grbl),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_grbl_sim_free(&S);
