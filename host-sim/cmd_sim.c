@@ -33,7 +33,8 @@ static const char sim_usage[] =
     "                   $201 scheme 0 B-spline/1 DLG, $202 degree, $203 depth,\n"
     "                   $204 sharp corner deg, $205 pen settle ms, $206 dir set-up us\n"
     "  --axes N         axes driven, 2 or 3 (default 3)\n"
-    "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM\n"
+    "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM;\n"
+    "                   either overrides G61/G64 in the program\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
     "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
@@ -407,9 +408,12 @@ int cmd_sim(int argc, char **argv)
             return 2;
         }
     }
-    if (exact)
+    if (exact) {
         cfg.smooth_mode = PK_SMOOTH_OFF;
+        cfg.force_smoothing = 1;
+    }
     if (tol >= 0.0) {
+        cfg.force_smoothing = 1;
         cfg.smooth_mode = tol > 0.0 ? PK_SMOOTH_TOLERANCE : PK_SMOOTH_OFF;
         if (tol > 0.0)
             cfg.tolerance = tol;

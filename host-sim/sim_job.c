@@ -343,7 +343,7 @@ static void execute(struct pk_sim_job *j, const struct pk_gc_cmd *c)
     }
     if (c->what & PK_GC_DO_DWELL)
         (void)pk_machine_dwell(j->m, c->dwell_ms > PK_DWELL_MS_MAX ? PK_DWELL_MS_MAX : c->dwell_ms);
-    if (c->what & PK_GC_DO_PATH) {
+    if ((c->what & PK_GC_DO_PATH) && !j->cfg->force_smoothing) {
         struct pk_smooth_cfg s = j->m->cfg.smooth;
         if (c->path == PK_GC_PATH_EXACT) {
             s.mode = PK_SMOOTH_OFF;

@@ -46,6 +46,7 @@ struct pk_sim_cfg {
     unsigned pen_settle_ms;        /**< $205 dwell after a pen change, default 50 */
     double dir_setup_us;           /**< $206 direction set-up µs, default 1 */
     double polyline_feed;          /**< feed for plain polyline files, mm/min, default 3000 */
+    int force_smoothing;           /**< 1: ignore G61/G64 in programs (keep $200/$12) */
     uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
 };
 

@@ -24,17 +24,29 @@ static void path_add(struct pk_sim_result *r, double x, double y, int pen)
     r->path[r->n_path++] = (struct pk_sim_path_pt){ x, y, (uint8_t)pen };
 }
 
-/* Every decoded step: speeds, path deviation, the thinned path. */
-static void on_step(void *arg, const struct pk_step_event *ev)
+/* Path deviation at the current position (all steps of one tick applied). */
+static void measure(struct pk_sim_result *r)
 {
-    struct pk_sim_result *r = arg;
-    if (ev->axis < PK_AXES)
-        pk_rate_step(&r->rate[ev->axis], ev->t, ev->dir);
-    r->pos[ev->axis] += ev->dir;
     double x = pk_sim_steps_to_um(r, 0, r->pos[0]), y = pk_sim_steps_to_um(r, 1, r->pos[1]);
     double d = pk_sim_job_point_deviation(&r->job, &r->dev_k, x, y);
     if (d > r->deviation_um)
         r->deviation_um = d;
+}
+
+/* Every decoded step: speeds, path deviation, the thinned path. Steps of
+ * several axes on the same tick are one diagonal move: the deviation is
+ * measured once they have all been applied. */
+static void on_step(void *arg, const struct pk_step_event *ev)
+{
+    struct pk_sim_result *r = arg;
+    if (r->step_pending && ev->t != r->step_t)
+        measure(r);
+    r->step_pending = 1;
+    r->step_t = ev->t;
+    if (ev->axis < PK_AXES)
+        pk_rate_step(&r->rate[ev->axis], ev->t, ev->dir);
+    r->pos[ev->axis] += ev->dir;
+    double x = pk_sim_steps_to_um(r, 0, r->pos[0]), y = pk_sim_steps_to_um(r, 1, r->pos[1]);
     if (ev->pen != r->last_pen) {
         if (r->n_path > 0u)
             path_add(r, r->last_x, r->last_y, r->last_pen);
@@ -138,6 +150,9 @@ int pk_sim_finish(struct pk_sim_result *r)
         fputs("\r\033[K", r->opts.progress);
     r->ticks = r->hw.sched.now;
     pk_machine_position_steps(&r->m, r->fw_steps);
+    if (r->step_pending)
+        measure(r);
+    r->step_pending = 0;
     if (r->n_path > 0u)
         path_add(r, r->last_x, r->last_y, r->last_pen);
     for (unsigned a = 0; a < c->axes && a < PK_AXES; a++) {

@@ -55,6 +55,8 @@ struct pk_sim_result {
     /* executed path, measured as it is decoded */
     int64_t pos[PK_HAL_MAX_AXES];
     size_t dev_k;
+    int step_pending;               /**< steps of tick step_t not yet measured */
+    uint64_t step_t;
     struct pk_sim_path_pt *path;    /**< thinned executed path (heap) */
     size_t n_path, cap_path;
     double last_x, last_y;          /**< position before the latest step */
