@@ -7,6 +7,10 @@
 # links its own archive without the mock, followed by -lgpiod.
 
 GPIOD_LIBS := $(shell pkg-config --libs libgpiod 2>/dev/null || echo -lgpiod)
+# Only hal/gpiod/gpiod_v1.c names libgpiod functions (the 1.x API of Debian 12
+# and Raspberry Pi OS bookworm). A gpiod_v2.c implementing pk_gpiod_port.h on
+# the 2.x API would sit beside it, and this fragment would keep the one that
+# matches `pkg-config --modversion libgpiod` (out of the wildcard lists).
 BOARD_OBJ  := $(filter-out $(BUILD)/obj/host-sim/gpiod_mock.o,$(HAL_OBJ) $(SIM_OBJ))
 
 .PHONY: board-gpiod
