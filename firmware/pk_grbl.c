@@ -32,16 +32,10 @@ enum { R_NONE = 0, R_SETTINGS, R_OFFSETS, R_INFO, R_GSTATE, R_HELP };
 
 /* ---- settings table -------------------------------------------------------- */
 
-struct setting_def {
-    uint16_t num;       /* $ number */
-    uint8_t integer;    /* printed and stored as an integer */
-    pk_gc_u6_t def, min, max;
-};
-
 #define U6(x) ((pk_gc_u6_t)(x) * 1000000)
 #define U6M(x) ((pk_gc_u6_t)(x) * 1000)  /* x thousandths */
 
-static const struct setting_def settings_table[PK_GRBL_S_COUNT] = {
+static const struct pk_grbl_setting_def settings_table[PK_GRBL_S_COUNT] = {
     [PK_GRBL_S_STEP_PULSE_US] = { 0, 1, U6(10), U6(1), U6(1000) },
     [PK_GRBL_S_JUNCTION_MM] = { 11, 0, U6M(10), 0, U6(10) },
     [PK_GRBL_S_TOLERANCE_MM] = { 12, 0, U6M(20), U6M(1), U6(10) },
@@ -65,6 +59,48 @@ static const struct setting_def settings_table[PK_GRBL_S_COUNT] = {
     [PK_GRBL_S_PEN_SETTLE_MS] = { 205, 1, U6(50), 0, U6(60000) },
     [PK_GRBL_S_DIR_SETUP_US] = { 206, 1, U6(1), 0, U6(1000) },
 };
+
+const struct pk_grbl_setting_def *pk_grbl_setting_def(int idx)
+{
+    return idx >= 0 && idx < PK_GRBL_S_COUNT ? &settings_table[idx] : NULL;
+}
+
+int pk_grbl_setting_index(uint32_t num)
+{
+    for (int i = 0; i < PK_GRBL_S_COUNT; i++)
+        if (settings_table[i].num == num)
+            return i;
+    return -1;
+}
+
+int pk_grbl_setting_parse(const uint8_t *s, size_t n, int *idx_out, pk_gc_u6_t *val_out)
+{
+    size_t eq = 0;
+    while (eq < n && s[eq] != '=')
+        eq++;
+    if (eq == n || eq == 0)
+        return 3;
+    pk_gc_u6_t num, val;
+    if (pk_gcode_parse_number(s, eq, &num) != PK_GC_OK || num < 0 || num % 1000000 != 0 ||
+        num / 1000000 > UINT16_MAX)
+        return 3;
+    int rc = pk_gcode_parse_number(s + eq + 1, n - eq - 1, &val);
+    if (rc != PK_GC_OK)
+        return rc;
+    int idx = pk_grbl_setting_index((uint32_t)(num / 1000000));
+    if (idx < 0)
+        return 3;
+    const struct pk_grbl_setting_def *d = &settings_table[idx];
+    if (val < 0)
+        return 4;
+    if (d->integer && val % 1000000 != 0)
+        return 3;
+    if (val < d->min || val > d->max)
+        return 3;
+    *idx_out = idx;
+    *val_out = val;
+    return 0;
+}
 
 void pk_grbl_settings_default(struct pk_grbl_settings *s)
 {
@@ -359,7 +395,7 @@ static int continue_report(struct pk_grbl *g)
             if (g->report_i >= PK_GRBL_S_COUNT)
                 goto done;
             {
-                const struct setting_def *d = &settings_table[g->report_i];
+                const struct pk_grbl_setting_def *d = &settings_table[g->report_i];
                 puts_(g, "$");
                 put_u32(g, d->num);
                 puts_(g, "=");
@@ -418,30 +454,11 @@ static int mstate_idle(struct pk_grbl *g)
 /* "$N=value": returns a Grbl status. */
 static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
 {
-    size_t eq = 0;
-    while (eq < n && s[eq] != '=')
-        eq++;
-    if (eq == n || eq == 0)
-        return 3;
-    pk_gc_u6_t num, val;
-    if (pk_gcode_parse_number(s, eq, &num) != PK_GC_OK || num < 0 || num % 1000000 != 0)
-        return 3;
-    int rc = pk_gcode_parse_number(s + eq + 1, n - eq - 1, &val);
-    if (rc != PK_GC_OK)
+    int idx;
+    pk_gc_u6_t val;
+    int rc = pk_grbl_setting_parse(s, n, &idx, &val);
+    if (rc != 0)
         return rc;
-    int idx = -1;
-    for (int i = 0; i < PK_GRBL_S_COUNT; i++)
-        if (settings_table[i].num == num / 1000000)
-            idx = i;
-    if (idx < 0)
-        return 3;
-    const struct setting_def *d = &settings_table[idx];
-    if (val < 0)
-        return 4;
-    if (d->integer && val % 1000000 != 0)
-        return 3;
-    if (val < d->min || val > d->max)
-        return 3;
     if (!mstate_idle(g) || g->check_mode)
         return 8;
     struct pk_grbl_settings next = g->set;

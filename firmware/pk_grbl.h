@@ -103,6 +103,38 @@ struct pk_grbl_settings {
     pk_gc_u6_t v[PK_GRBL_S_COUNT]; /**< 1e-6 of the unit listed above */
 };
 
+/**
+ * One `$N` setting of the table (the one table of the settings: the engine's
+ * `$$`/`$N=` and the simulator's `--config` loader both use it). Values are
+ * pk_gc_u6_t (1e-6 of the setting's unit, see enum pk_grbl_setting).
+ */
+struct pk_grbl_setting_def {
+    uint16_t num;       /**< the N of `$N` */
+    uint8_t integer;    /**< 1: only whole values (printed without decimals) */
+    pk_gc_u6_t def;     /**< default */
+    pk_gc_u6_t min;     /**< smallest accepted value */
+    pk_gc_u6_t max;     /**< largest accepted value */
+};
+
+/** The table entry of setting idx (enum pk_grbl_setting), or NULL if out of
+ *  range. Points into const data (static lifetime). Any context. */
+const struct pk_grbl_setting_def *pk_grbl_setting_def(int idx);
+
+/** Index (enum pk_grbl_setting) of setting `$num`, or -1 if there is none. */
+int pk_grbl_setting_index(uint32_t num);
+
+/**
+ * Parse and validate the text after '$' of a `$N=value` line (s, n bytes,
+ * no terminator, no line end) against the table, with G-code's number rules.
+ * Does not apply it (the engine also requires an idle machine).
+ * @param[out] idx  setting index, set only on success
+ * @param[out] val  value in 1e-6 units, set only on success
+ * @return 0, or a Grbl error: 3 (no '=', unknown setting, not an integer
+ *         where one is needed, out of range), 4 (negative), or the number
+ *         parser's error for a malformed value. Any context (pure function).
+ */
+int pk_grbl_setting_parse(const uint8_t *s, size_t n, int *idx, pk_gc_u6_t *val);
+
 /** Fill *s with the defaults. */
 void pk_grbl_settings_default(struct pk_grbl_settings *s);
 

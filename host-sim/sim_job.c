@@ -7,29 +7,89 @@
 #include <stdlib.h>
 #include <string.h>
 #include "sim_job.h"
+#include "pk_grbl.h"
+#include "pk_grbl_motion.h"
 
 /* Requests one G-code line can need: pen + dwell + path + move + end. */
 #define ROOM_PER_LINE 5u
 
+static int failf(char *err, size_t errlen, const char *fmt, ...);
+
+/* ---- settings: Grbl's `$N` table of the firmware (pk_grbl.h) ------------ */
+
+/* The double member of c that holds setting idx (enum pk_grbl_setting) as
+ * the user writes it, or NULL for the whole-number ones (see cfg_uint). */
+static double *cfg_double(struct pk_sim_cfg *c, int idx)
+{
+    switch (idx) {
+    case PK_GRBL_S_STEP_PULSE_US: return &c->step_pulse_us;
+    case PK_GRBL_S_JUNCTION_MM: return &c->junction_dev;
+    case PK_GRBL_S_TOLERANCE_MM: return &c->tolerance;
+    case PK_GRBL_S_DIR_SETUP_US: return &c->dir_setup_us;
+    default: break;
+    }
+    if (idx >= PK_GRBL_S_STEPS_X && idx <= PK_GRBL_S_STEPS_Z)
+        return &c->steps_per_mm[idx - PK_GRBL_S_STEPS_X];
+    if (idx >= PK_GRBL_S_RATE_X && idx <= PK_GRBL_S_RATE_Z)
+        return &c->max_rate[idx - PK_GRBL_S_RATE_X];
+    if (idx >= PK_GRBL_S_ACCEL_X && idx <= PK_GRBL_S_ACCEL_Z)
+        return &c->accel[idx - PK_GRBL_S_ACCEL_X];
+    if (idx >= PK_GRBL_S_TRAVEL_X && idx <= PK_GRBL_S_TRAVEL_Z)
+        return &c->travel[idx - PK_GRBL_S_TRAVEL_X];
+    return NULL;
+}
+
+static unsigned *cfg_uint(struct pk_sim_cfg *c, int idx)
+{
+    switch (idx) {
+    case PK_GRBL_S_SMOOTH_MODE: return &c->smooth_mode;
+    case PK_GRBL_S_SCHEME: return &c->scheme;
+    case PK_GRBL_S_DEGREE: return &c->degree;
+    case PK_GRBL_S_DEPTH: return &c->depth;
+    case PK_GRBL_S_CORNER_DEG: return &c->sharp_deg;
+    case PK_GRBL_S_PEN_SETTLE_MS: return &c->pen_settle_ms;
+    default: return NULL;
+    }
+}
+
+void pk_sim_cfg_from_grbl(struct pk_sim_cfg *c, const struct pk_grbl_settings *s)
+{
+    for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
+        double *d = cfg_double(c, i);
+        unsigned *u = cfg_uint(c, i);
+        if (d != NULL)
+            *d = (double)s->v[i] / 1e6;
+        else if (u != NULL)
+            *u = (unsigned)(s->v[i] / 1000000);
+    }
+}
+
+int pk_sim_cfg_to_grbl(const struct pk_sim_cfg *cc, struct pk_grbl_settings *s, char *err,
+                       size_t errlen)
+{
+    struct pk_sim_cfg *c = (struct pk_sim_cfg *)cc; /* only read through the accessors */
+    for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
+        const struct pk_grbl_setting_def *d = pk_grbl_setting_def(i);
+        const double *dv = cfg_double(c, i);
+        const unsigned *uv = cfg_uint(c, i);
+        double v = dv != NULL ? *dv * 1e6 : (double)*uv * 1e6;
+        if (!(v >= (double)d->min - 0.5 && v <= (double)d->max + 0.5))
+            return failf(err, errlen, "$%u out of range (%g..%g)", (unsigned)d->num,
+                         (double)d->min / 1e6, (double)d->max / 1e6);
+        s->v[i] = (pk_gc_u6_t)llround(v);
+        if (d->integer && s->v[i] % 1000000 != 0)
+            return failf(err, errlen, "$%u must be a whole number", (unsigned)d->num);
+    }
+    return 0;
+}
+
 void pk_sim_cfg_default(struct pk_sim_cfg *c)
 {
+    struct pk_grbl_settings s;
     memset(c, 0, sizeof *c);
+    pk_grbl_settings_default(&s);
+    pk_sim_cfg_from_grbl(c, &s);
     c->axes = PK_AXES;
-    for (int i = 0; i < 3; i++) {
-        c->steps_per_mm[i] = 80.0;
-        c->max_rate[i] = i < 2 ? 6000.0 : 1500.0;
-        c->accel[i] = i < 2 ? 1000.0 : 500.0;
-        c->travel[i] = i < 2 ? 300.0 : 50.0;
-    }
-    c->junction_dev = 0.01;
-    c->step_pulse_us = 10.0;
-    c->dir_setup_us = 1.0;
-    c->smooth_mode = PK_SMOOTH_TOLERANCE;
-    c->tolerance = 0.02;
-    c->sharp_deg = 60;
-    c->degree = 3;
-    c->depth = 3;
-    c->pen_settle_ms = 50;
     c->polyline_feed = 3000.0;
     c->tick_hz = 1000000u;
 }
@@ -46,7 +106,7 @@ static int failf(char *err, size_t errlen, const char *fmt, ...)
 }
 
 /* Grbl 1.1 settings plotkin has no use for: accepted, ignored. */
-static int grbl_ignored(unsigned n)
+static int grbl_ignored(unsigned long n)
 {
     static const unsigned ign[] = { 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 24, 25, 26, 27,
                                     30, 31, 32 };
@@ -54,6 +114,15 @@ static int grbl_ignored(unsigned n)
         if (ign[i] == n)
             return 1;
     return 0;
+}
+
+static const char *grbl_error_text(int code)
+{
+    switch (code) {
+    case 3: return "not a setting plotkin has, or out of its range";
+    case 4: return "negative value";
+    default: return "bad number";
+    }
 }
 
 int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t errlen, FILE *warn)
@@ -79,81 +148,57 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
             *cm = '\0';
         while (isspace((unsigned char)*s))
             s++;
+        size_t k = strlen(s);
+        while (k > 0 && isspace((unsigned char)s[k - 1]))
+            s[--k] = '\0';
         if (*s == '\0')
             continue;
-        char *end;
         if (*s != '$' || !isdigit((unsigned char)s[1]))
             return failf(err, errlen, "line %u: expected $N=value", lineno);
+        char *end;
         unsigned long num = strtoul(s + 1, &end, 10);
         while (isspace((unsigned char)*end))
             end++;
         if (*end != '=')
             return failf(err, errlen, "line %u: expected '=' after $%lu", lineno, num);
-        const char *vs = end + 1;
-        double v = strtod(vs, &end);
-        while (isspace((unsigned char)*end))
-            end++;
-        if (end == vs || *end != '\0' || !isfinite(v) || v < 0.0)
-            return failf(err, errlen, "line %u: $%lu needs a non-negative number", lineno, num);
-        switch (num) {
-        case 0: c->step_pulse_us = v; break;
-        case 11: c->junction_dev = v; break;
-        case 12: c->tolerance = v; break;
-        case 100: case 101: case 102: c->steps_per_mm[num - 100] = v; break;
-        case 110: case 111: case 112: c->max_rate[num - 110] = v; break;
-        case 120: case 121: case 122: c->accel[num - 120] = v; break;
-        case 130: case 131: case 132: c->travel[num - 130] = v; break;
-        case 200: c->smooth_mode = (unsigned)v; break;
-        case 201: c->scheme = (unsigned)v; break;
-        case 202: c->degree = (unsigned)v; break;
-        case 203: c->depth = (unsigned)v; break;
-        case 204: c->sharp_deg = (unsigned)v; break;
-        case 205: c->pen_settle_ms = (unsigned)v; break;
-        case 206: c->dir_setup_us = v; break;
-        default:
-            if (!grbl_ignored((unsigned)num))
+        if (num > 65535ul || pk_grbl_setting_index((uint32_t)num) < 0) {
+            if (!grbl_ignored(num))
                 return failf(err, errlen, "line %u: unknown setting $%lu", lineno, num);
             if (warn)
                 fprintf(warn, "plotkin sim: note: $%lu has no effect in plotkin\n", num);
-            break;
+            continue;
         }
+        /* The firmware's own parser and table: the same numbers, ranges and
+         * number syntax as `$N=value` sent to the Grbl engine. */
+        int idx;
+        pk_gc_u6_t val;
+        int rc = pk_grbl_setting_parse((const uint8_t *)s + 1, k - 1u, &idx, &val);
+        if (rc != 0) {
+            const struct pk_grbl_setting_def *d = pk_grbl_setting_def(pk_grbl_setting_index((uint32_t)num));
+            return failf(err, errlen, "line %u: $%lu: error:%d (%s; range %g..%g%s)", lineno, num, rc,
+                         grbl_error_text(rc), (double)d->min / 1e6, (double)d->max / 1e6,
+                         d->integer ? ", whole numbers" : "");
+        }
+        struct pk_grbl_settings set;
+        if (pk_sim_cfg_to_grbl(c, &set, NULL, 0) != 0)
+            pk_grbl_settings_default(&set); /* c was edited out of range: start clean */
+        set.v[idx] = val;
+        pk_sim_cfg_from_grbl(c, &set);
     }
     return 0;
 }
 
 int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *o, char *err, size_t errlen)
 {
+    struct pk_grbl_settings set;
     memset(o, 0, sizeof *o);
     if (c->axes < 2u || c->axes > PK_AXES)
         return failf(err, errlen, "axes must be 2..%d", PK_AXES);
+    if (pk_sim_cfg_to_grbl(c, &set, err, errlen) != 0)
+        return -1;
+    /* The firmware's conversion, as the Grbl engine configures the machine. */
+    pk_grbl_motion_cfg(&set, c->tick_hz, o);
     o->axes = (uint8_t)c->axes;
-    for (unsigned i = 0; i < PK_AXES && i < 3u; i++) {
-        double spmm = c->steps_per_mm[i] * 65536.0;
-        if (!(spmm >= PK_SPMM_Q16_MIN && spmm <= PK_SPMM_Q16_MAX))
-            return failf(err, errlen, "$%u steps/mm out of range (1/16..10000)", 100u + i);
-        o->steps_per_mm_q16[i] = (pk_spmm_q16_t)llround(spmm);
-        double rate = c->max_rate[i] * 1000.0;
-        if (!(rate >= 1.0 && rate <= PK_UM_MIN_MAX))
-            return failf(err, errlen, "$%u max rate out of range (0.001..60000 mm/min)", 110u + i);
-        o->max_rate[i] = (pk_um_min_t)llround(rate);
-        double acc = c->accel[i] * 1000.0;
-        if (!(acc >= 1.0 && acc <= PK_UM_S2_MAX))
-            return failf(err, errlen, "$%u acceleration out of range (0.001..100000 mm/s^2)", 120u + i);
-        o->accel[i] = (pk_um_s2_t)llround(acc);
-    }
-    o->junction_dev_um = (pk_um_t)llround(c->junction_dev * 1000.0);
-    double pulse = ceil(c->step_pulse_us * (double)c->tick_hz / 1e6 - 1e-9);
-    double setup = ceil(c->dir_setup_us * (double)c->tick_hz / 1e6 - 1e-9);
-    o->step_pulse_ticks = pulse < 1.0 ? 1u : (uint32_t)pulse;
-    o->dir_setup_ticks = (uint32_t)setup;
-    o->pen_settle_ms = c->pen_settle_ms;
-    o->pen_down_level = 1;
-    o->smooth.mode = (uint8_t)c->smooth_mode;
-    o->smooth.scheme = (uint8_t)c->scheme;
-    o->smooth.degree = (uint8_t)c->degree;
-    o->smooth.depth = (uint8_t)c->depth;
-    o->smooth.tolerance_um = (pk_um_t)llround(c->tolerance * 1000.0);
-    o->smooth.sharp_turn_deg = (uint16_t)c->sharp_deg;
     return 0;
 }
 

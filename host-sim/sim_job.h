@@ -26,6 +26,7 @@
 #include <stdio.h>
 #include "pk_bezier.h"
 #include "pk_gcode.h"
+#include "pk_grbl.h"
 #include "pk_motion.h"
 
 /** Machine configuration in user units (the `$N=value` settings). */
@@ -50,7 +51,7 @@ struct pk_sim_cfg {
     uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
 };
 
-/** A typical pen plotter (see the defaults above). */
+/** A typical pen plotter: the firmware's `$N` defaults (pk_grbl_settings_default). */
 void pk_sim_cfg_default(struct pk_sim_cfg *c);
 
 /**
@@ -60,7 +61,18 @@ void pk_sim_cfg_default(struct pk_sim_cfg *c);
  */
 int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t errlen, FILE *warn);
 
-/** Convert to the motion core's settings. Returns 0, or -1 with a reason. */
+/**
+ * The `$N` members of c from / to the firmware's settings (pk_grbl.h, whose
+ * table holds the numbers, defaults and ranges). to_grbl checks every value
+ * against the table's range (and whole numbers where the table wants them):
+ * 0, or -1 with the reason in err (err may be NULL).
+ */
+void pk_sim_cfg_from_grbl(struct pk_sim_cfg *c, const struct pk_grbl_settings *s);
+int pk_sim_cfg_to_grbl(const struct pk_sim_cfg *c, struct pk_grbl_settings *s, char *err,
+                       size_t errlen);
+
+/** Convert to the motion core's settings with the firmware's own conversion
+ *  (pk_grbl_motion_cfg, as the Grbl engine does), then c->axes. Returns 0, or -1 with a reason. */
 int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *out, char *err, size_t errlen);
 
 /**
