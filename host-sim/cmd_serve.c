@@ -21,9 +21,12 @@
  * client does not start with stale lines. SIGINT/SIGTERM stop it cleanly and a
  * summary is printed.
  *
- * The machine here is motion's recording HAL with logging off (constant
- * memory for an endless session); the pin-level simulator (halsim) can
- * replace it without changing the protocol side.
+ * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
+ * on the mock GPIO chip, the simulator's scheduler and clock, and the pin
+ * trace decoded on the fly with the driver's timing checks, so memory stays
+ * flat over an endless session and the summary printed on exit is `plotkin
+ * sim`'s (host-sim/sim_report.h): timing violations, max speed and
+ * acceleration, final position decoded from the step pins, ...
  */
 #define _XOPEN_SOURCE 700
 #include <errno.h>
@@ -34,11 +37,11 @@
 #include <string.h>
 #include <time.h>
 #include "commands.h"
-#include "grbl_sim.h"
+#include "serve_sim.h"
+#include "sim_report.h"
 #include "posix/pk_serial.h"
 
 #define TICK_HZ 1000000u
-#define MAIN_PERIOD_TICKS 500u
 
 /* The one piece of process state a signal handler may touch. */
 static volatile sig_atomic_t serve_stop;
@@ -111,9 +114,13 @@ int cmd_serve(int argc, char **argv)
         }
     }
 
-    struct pk_grbl_sim *sim = calloc(1, sizeof *sim);
-    if (sim == NULL || pk_grbl_sim_init(sim, TICK_HZ, NULL) != 0) {
-        fprintf(stderr, "plotkin serve: cannot initialise the machine\n");
+    struct pk_serve_sim *sim = calloc(1, sizeof *sim);
+    const struct pk_timing_limits lim = PK_TIMING_DRV8825;
+    if (sim == NULL || pk_serve_sim_start(sim, "plotkin-serve0", &lim) != 0) {
+        fprintf(stderr, "plotkin serve: cannot initialise the machine%s%s\n", sim ? ": " : "",
+                sim ? sim->r.err : "");
+        if (sim)
+            pk_serve_sim_free(sim);
         free(sim);
         return 1;
     }
@@ -121,7 +128,7 @@ int cmd_serve(int argc, char **argv)
     int rc = device ? pk_serial_open(&ser, device, (uint32_t)baud) : pk_serial_open_pty(&ser, link);
     if (rc != 0) {
         fprintf(stderr, "plotkin serve: %s: %s\n", device ? device : "pty", strerror(-rc));
-        pk_grbl_sim_free(sim);
+        pk_serve_sim_free(sim);
         free(sim);
         return 1;
     }
@@ -145,24 +152,24 @@ int cmd_serve(int argc, char **argv)
     uint64_t sim_base = 0, lag_events = 0, stale_flushes = 0;
     uint64_t next_stale_check = t0 + 1000000000ull;
     size_t unread_prev = 0;
-    int io_error = 0;
+    int io_error = 0, sim_error = 0;
     while (!serve_stop) {
+        uint64_t rx0 = ser.rx_bytes;
         if (pk_serial_pump(&ser, &sim->uart) != 0) {
             io_error = 1;
             break;
         }
+        if (ser.rx_bytes != rx0)
+            pk_serve_sim_wake(sim); /* the receive interrupt wakes the main loop */
+        uint64_t now = pk_serve_sim_now(sim);
         uint64_t target = sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
         /* At most ~1 ms of wall-equivalent work between two pumps. */
-        uint64_t slice_end = sim->rec.now + (uint64_t)speed * (TICK_HZ / 1000u);
+        uint64_t slice_end = now + (uint64_t)speed * (TICK_HZ / 1000u);
         if (slice_end > target)
             slice_end = target;
-        while (sim->rec.now < slice_end) {
-            int busy = pk_rec_armed(&sim->rec) || !pk_grbl_idle(&sim->g) ||
-                       pk_uart_rx_used(&sim->uart) > 0 || pk_machine_state(&sim->m) != PK_STATE_IDLE;
-            uint64_t step = busy ? MAIN_PERIOD_TICKS : slice_end - sim->rec.now;
-            if (step > slice_end - sim->rec.now)
-                step = slice_end - sim->rec.now;
-            pk_grbl_sim_step(sim, step);
+        if (slice_end > now && pk_serve_sim_run(sim, slice_end - now) != 0) {
+            sim_error = 1;
+            break;
         }
         pk_grbl_poll(&sim->g);
         if (pk_serial_pump(&ser, &sim->uart) != 0) {
@@ -171,11 +178,11 @@ int cmd_serve(int argc, char **argv)
         }
         uint64_t now_target =
             sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
-        if (now_target > sim->rec.now + (uint64_t)TICK_HZ / 2u * (uint64_t)speed) {
+        if (now_target > pk_serve_sim_now(sim) + (uint64_t)TICK_HZ / 2u * (uint64_t)speed) {
             /* More than half a wall second behind: run as fast as we can
              * from here instead of trying to catch up. */
             lag_events++;
-            sim_base = sim->rec.now;
+            sim_base = pk_serve_sim_now(sim);
             t0 = now_ns();
             continue;
         }
@@ -191,29 +198,37 @@ int cmd_serve(int argc, char **argv)
             unread_prev = unread;
             next_stale_check = now_ns() + 1000000000ull;
         }
-        if (sim->rec.now >= now_target) {
+        if (pk_serve_sim_now(sim) >= now_target) {
             struct pollfd p = { ser.fd, POLLIN, 0 };
             poll(&p, 1, 1);
         }
     }
     double wall = (double)(now_ns() - wall_start) / 1e9;
     pk_um_t pos[PK_AXES];
-    pk_machine_position_um(&sim->m, pos);
+    pk_machine_position_um(&sim->r.m, pos);
     const struct pk_grbl_stats *st = &sim->g.stats;
-    printf("plotkin serve: stopped%s\n", io_error ? " (I/O error on the serial line)" : "");
-    printf("  simulated time %.3f s, wall time %.3f s, speed x%ld%s\n",
-           (double)sim->rec.now / TICK_HZ, wall, speed, lag_events ? " (host could not keep up)" : "");
+    printf("plotkin serve: stopped%s%s\n", io_error ? " (I/O error on the serial line)" : "",
+           sim_error ? " (the simulation broke down, see run below)" : "");
+    printf("  wall time %.3f s, speed x%ld%s\n", wall, speed,
+           lag_events ? " (host could not keep up)" : "");
     printf("  lines %u: %u ok, %u error; moves %u; soft resets %u\n", st->lines, st->ok,
            st->errors, st->moves, st->resets);
     printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow, "
            "%llu unread-output discards\n",
            (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
            (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)stale_flushes);
-    printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->m)),
+    printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->r.m)),
            pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
+    /* The simulated machine's own report, as `plotkin sim` prints it. */
+    if (pk_serve_sim_finish(sim) == 0) {
+        printf("plotkin serve: the simulated machine, as `plotkin sim` reports it\n");
+        pk_sim_print_summary(stdout, &sim->r, sim->cfg.axes, &sim->cfg, "drv8825");
+    } else {
+        printf("  (no machine summary: %s)\n", sim->r.err);
+    }
     fflush(stdout);
     pk_serial_close(&ser);
-    pk_grbl_sim_free(sim);
+    pk_serve_sim_free(sim);
     free(sim);
-    return io_error ? 1 : 0;
+    return io_error || sim_error ? 1 : 0;
 }

@@ -336,12 +336,7 @@ static void record_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], int rap
     mv->pen = j->pen;
 }
 
-static void gc_error(struct pk_sim_job *j, int code)
-{
-    if (j->errors < sizeof j->err / sizeof j->err[0])
-        j->err[j->errors] = (struct pk_sim_gc_error){ j->lineno, code };
-    j->errors++;
-}
+static void gc_error(struct pk_sim_job *j, int code) { pk_sim_job_note_error(j, j->lineno, code); }
 
 static int request_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], pk_gc_umpm_t feed, int rapid)
 {
@@ -473,21 +468,9 @@ static void feed(struct pk_sim_job *j)
     }
 }
 
-int pk_sim_job_main(void *arg, uint64_t now)
+void pk_sim_job_poll_machine(struct pk_sim_job *j)
 {
-    struct pk_sim_job *j = arg;
     struct pk_machine *m = j->m;
-
-    if (pk_machine_state(m) == PK_STATE_ALARM) {
-        if (j->alarms == 0u) {
-            j->alarms = 1;
-            j->alarm = (int)pk_machine_alarm(m);
-            snprintf(j->alarm_text, sizeof j->alarm_text, "%s", pk_hal_error_text(m->hal));
-        }
-        j->finished = 1;
-        return -1;
-    }
-    feed(j);
     /* Host-side peek into the machine's motion queue (read only; the
      * firmware API has no block counter): count the blocks this poll queues: they are appended at the ring's
      * head, so the new ones sit between the old head and the new head. */
@@ -503,6 +486,31 @@ int pk_sim_job_main(void *arg, uint64_t now)
         else if (bl->type == PK_BLK_PEN)
             j->pen_blocks++;
     }
+}
+
+void pk_sim_job_note_error(struct pk_sim_job *j, unsigned line, int code)
+{
+    if (j->errors < sizeof j->err / sizeof j->err[0])
+        j->err[j->errors] = (struct pk_sim_gc_error){ line, code };
+    j->errors++;
+}
+
+int pk_sim_job_main(void *arg, uint64_t now)
+{
+    struct pk_sim_job *j = arg;
+    struct pk_machine *m = j->m;
+
+    if (pk_machine_state(m) == PK_STATE_ALARM) {
+        if (j->alarms == 0u) {
+            j->alarms = 1;
+            j->alarm = (int)pk_machine_alarm(m);
+            snprintf(j->alarm_text, sizeof j->alarm_text, "%s", pk_hal_error_text(m->hal));
+        }
+        j->finished = 1;
+        return -1;
+    }
+    feed(j);
+    pk_sim_job_poll_machine(j);
     if (j->progress != NULL && now >= j->next_progress_tick) {
         j->next_progress_tick = now + (uint64_t)j->cfg->tick_hz * 2u;
         fprintf(j->progress, "\rplotkin sim: line %lu (%.0f%% of the file read), %.1f s simulated ",

@@ -133,6 +133,14 @@ int pk_sim_job_main(void *arg, uint64_t now_ticks);
 
 void pk_sim_job_free(struct pk_sim_job *j);
 
+/** The machine's part of a main-loop iteration: pk_machine_poll, counting
+ *  the blocks it queues (j->segments, j->pen_blocks). For main loops other
+ *  than pk_sim_job_main that drive j->m (e.g. the Grbl engine's). */
+void pk_sim_job_poll_machine(struct pk_sim_job *j);
+
+/** Count a G-code error (line number, code); the first 32 are listed. */
+void pk_sim_job_note_error(struct pk_sim_job *j, unsigned line, int code);
+
 /**
  * Largest distance (µm) from any of the points (x[i], y[i]) (µm) to the
  * commanded path (every move, both pen states). Points are matched against a

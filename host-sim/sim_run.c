@@ -46,6 +46,8 @@ static void on_step(void *arg, const struct pk_step_event *ev)
     if (ev->axis < PK_AXES)
         pk_rate_step(&r->rate[ev->axis], ev->t, ev->dir);
     r->pos[ev->axis] += ev->dir;
+    if (r->opts.no_path)
+        return;
     double x = pk_sim_steps_to_um(r, 0, r->pos[0]), y = pk_sim_steps_to_um(r, 1, r->pos[1]);
     if (ev->pen != r->last_pen) {
         if (r->n_path > 0u)
@@ -134,7 +136,8 @@ int pk_sim_advance(struct pk_sim_result *r, uint64_t ticks)
         return 1;
     uint64_t left = limit > r->hw.sched.now ? limit - r->hw.sched.now : 0u;
     uint64_t slice = ticks && ticks < left ? ticks : left;
-    int st = pk_sim_sched_run(&r->hw.sched, pk_sim_job_main, &r->job, slice);
+    int st = r->opts.main_fn != NULL ? pk_sim_sched_run(&r->hw.sched, r->opts.main_fn, r->opts.main_arg, slice)
+                                     : pk_sim_sched_run(&r->hw.sched, pk_sim_job_main, &r->job, slice);
     if (st == PK_SIM_RUN_TIME_LIMIT && r->hw.sched.now < limit)
         return 0; /* slice over, run on */
     r->run_status = st;

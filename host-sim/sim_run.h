@@ -33,6 +33,13 @@ struct pk_sim_opts {
     int keep_trace;                 /**< 1: keep every pin edge in hw.trace.e (tests) */
     int keep_events;                /**< 1: keep every decoded step in dec.ev (tests) */
     FILE *trace_csv;                /**< if not NULL: every pin edge as CSV, as it happens */
+    /** If not NULL: the firmware's main loop instead of the job's (e.g. the
+     *  Grbl engine in `plotkin serve`); it drives r->m (the job is set up on
+     *  an empty program and its counters are the caller's to fill). It must
+     *  never return PK_SIM_DONE if the run is to go on until the caller stops. */
+    pk_sim_main_fn main_fn;
+    void *main_arg;
+    int no_path;                    /**< 1: keep no executed path (memory stays flat) */
 };
 
 /** A point of the executed path kept for drawing (thinned to 0.1 mm). */

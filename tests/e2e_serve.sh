@@ -59,6 +59,62 @@ else
   fi
   [[ ! -e $tmp/tty ]] && ok "the --link symlink is removed on exit" || bad "the --link symlink is removed on exit"
 fi
+# The exit summary is `plotkin sim`'s, from the same simulated machine: a
+# program streamed to serve must end where `plotkin sim` ends it (exact
+# steps: 80 steps/mm, the default $100/$101), with no timing violation.
+cat >"$tmp/prog.gcode" <<'G'
+G21 G90
+G64 P0.02
+M3
+G1 X10 Y0 F3000
+G1 X12.5 Y5
+G1 X12.5 Y7.25
+M5
+G
+cat >"$tmp/stream.py" <<'PYEOF'
+import serial, sys, time
+s = serial.Serial(sys.argv[1], 115200, timeout=0.1)
+def line(deadline=10.0):
+    t = time.time(); b = b''
+    while time.time() - t < deadline:
+        c = s.read(1)
+        if c == b'\n':
+            return b.decode(errors='replace').strip()
+        b += c
+    return None
+for l in open(sys.argv[2]).read().splitlines():
+    s.write((l + '\n').encode())
+    while True:
+        a = line()
+        if a is None or a == 'ok' or a.startswith('error'):
+            print(l, '->', a); break
+t = time.time()
+while time.time() - t < 30:
+    s.write(b'?')
+    a = line()
+    if a and a.startswith('<Idle'):
+        print(a); break
+    time.sleep(0.05)
+PYEOF
+"$BUILD/plotkin" serve --link "$tmp/tty2" --speed 20 >"$tmp/sout" 2>&1 &
+srv=$!
+for _ in $(seq 200); do [[ -e $tmp/tty2 ]] && break; sleep 0.05; done
+streamed=$(timeout 60 $PY "$tmp/stream.py" "$tmp/tty2" "$tmp/prog.gcode" 2>&1)
+kill -TERM "$srv"; wait "$srv"; rc=$?; srv=""
+"$BUILD/plotkin" sim "$tmp/prog.gcode" >"$tmp/simout" 2>&1
+want="final position    X 1000 steps = 12.5000 mm  Y 580 steps = 7.2500 mm  Z 0 steps = 0.0000 mm"
+if [[ $rc -eq 0 ]] && grep -q '^<Idle|MPos:12.500,7.250,0.000' <<<"$streamed" &&
+   grep -qF "  timing violations 0 (drv8825 limits)" "$tmp/sout" &&
+   grep -qF "  $want" "$tmp/sout" && grep -qF "  $want" "$tmp/simout" &&
+   grep -qE "^  lines +7$" "$tmp/sout" && grep -qE "^  errors +0$" "$tmp/sout" &&
+   grep -qE "^  alarms +0$" "$tmp/sout" && grep -qE "^  max speed +X [0-9.]+ mm/s" "$tmp/sout" &&
+   grep -qE "^  max acceleration +X [0-9]+ mm/s\^2" "$tmp/sout"; then
+  ok "the SIGTERM summary is plotkin sim's: no timing violation, the exact final position in steps"
+else
+  bad "the SIGTERM summary is plotkin sim's: no timing violation, the exact final position in steps" \
+      "exit $rc" "$streamed" "$(cat "$tmp/sout")" "$(cat "$tmp/simout")"
+fi
+
 # --device: the termios backend on a real tty device (one end of a socat
 # null-modem pair), a sender on the other end.
 if command -v socat >/dev/null; then
