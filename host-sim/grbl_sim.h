@@ -9,7 +9,9 @@
  * simulated time in which the step-timer callbacks run at their exact ticks.
  * Bytes go in through pk_uart_rx_push(&s->uart, ...) (the receive "ISR",
  * realtime filter included) and come out through pk_uart_tx_pop; or attach a
- * pseudo-terminal with pk_serial_pump (see cmd_serve.c).
+ * pseudo-terminal with pk_serial_pump. `plotkin serve` runs the same engine on
+ * the pin-level simulator instead (serve_sim.h); this lighter machine serves
+ * the protocol tests (test_grbl_motion, test_settings_paths).
  *
  * Single-threaded and deterministic. Storage is caller-owned (it is large:
  * allocate it statically or on the heap, not on a small stack).
