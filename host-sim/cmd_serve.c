@@ -16,10 +16,15 @@
  * accumulated.
  *
  * The pty survives client disconnects (we hold our own slave fd open), so a
- * sender can disconnect and reconnect; output nobody has read for a second
- * or more (answers to a client that has gone) is discarded, so the next
- * client does not start with stale lines. SIGINT/SIGTERM stop it cleanly and a
- * summary is printed.
+ * sender can disconnect and reconnect. serve counts the clients that have the
+ * pty open (inotify IN_OPEN / IN_CLOSE on the slave's inode; our own slave fd
+ * was opened before the watch) and drops output only while that count is
+ * zero: answers a client left unread when it went are gone before the next
+ * one connects, and a client that is merely slow never loses a byte (a lost
+ * `ok` would hang a character-counting sender). The events are read at the
+ * top of every loop iteration, before the line is read, and a client's open
+ * is queued before anything it writes, so its first answer is never dropped.
+ * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
  * on the mock GPIO chip, the simulator's scheduler and clock, and the pin
@@ -31,6 +36,8 @@
 #define _XOPEN_SOURCE 700
 #include <errno.h>
 #include <poll.h>
+#include <sys/inotify.h>
+#include <unistd.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -149,11 +156,38 @@ int cmd_serve(int argc, char **argv)
     fflush(stdout);
 
     uint64_t t0 = now_ns(), wall_start = t0;
-    uint64_t sim_base = 0, lag_events = 0, stale_flushes = 0;
-    uint64_t next_stale_check = t0 + 1000000000ull;
-    size_t unread_prev = 0;
+    uint64_t sim_base = 0, lag_events = 0;
+    /* A client opening the slave is what makes unread output stale. */
+    int opens = device ? -1 : inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+    unsigned long clients = 0, connections = 0;
+    if (opens >= 0 && inotify_add_watch(opens, ser.path, IN_OPEN | IN_CLOSE) < 0) {
+        close(opens);
+        opens = -1;
+    }
+    if (!device && opens < 0)
+        fprintf(stderr, "plotkin serve: inotify unavailable (%s): a reconnecting client may "
+                        "see answers meant for the previous one\n", strerror(errno));
     int io_error = 0, sim_error = 0;
     while (!serve_stop) {
+        if (opens >= 0) {
+            char evbuf[16 * (sizeof(struct inotify_event) + 16)]
+                __attribute__((aligned(__alignof__(struct inotify_event))));
+            ssize_t n;
+            while ((n = read(opens, evbuf, sizeof evbuf)) > 0) {
+                for (char *q = evbuf; q < evbuf + n;) {
+                    const struct inotify_event *e = (const struct inotify_event *)(void *)q;
+                    if (e->mask & IN_OPEN) {
+                        if (clients++ == 0)
+                            connections++;
+                    }
+                    if ((e->mask & IN_CLOSE) && clients > 0)
+                        clients--;
+                    q += sizeof *e + e->len;
+                }
+            }
+            if (clients == 0)
+                pk_serial_discard_unread(&ser); /* nobody is there to read it */
+        }
         uint64_t rx0 = ser.rx_bytes;
         if (pk_serial_pump(&ser, &sim->uart) != 0) {
             io_error = 1;
@@ -186,18 +220,6 @@ int cmd_serve(int argc, char **argv)
             t0 = now_ns();
             continue;
         }
-        /* Answers nobody has read for a whole second belong to a client
-         * that has gone: drop them so the next one starts clean. */
-        if (!device && now_ns() >= next_stale_check) {
-            size_t unread = pk_serial_unread(&ser);
-            if (unread > 0 && unread_prev > 0 && unread >= unread_prev) {
-                pk_serial_discard_unread(&ser);
-                stale_flushes++;
-                unread = 0;
-            }
-            unread_prev = unread;
-            next_stale_check = now_ns() + 1000000000ull;
-        }
         if (pk_serve_sim_now(sim) >= now_target) {
             struct pollfd p = { ser.fd, POLLIN, 0 };
             poll(&p, 1, 1);
@@ -214,9 +236,9 @@ int cmd_serve(int argc, char **argv)
     printf("  lines %u: %u ok, %u error; moves %u; soft resets %u\n", st->lines, st->ok,
            st->errors, st->moves, st->resets);
     printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow, "
-           "%llu unread-output discards\n",
+           "%llu client connections\n",
            (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
-           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)stale_flushes);
+           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)connections);
     printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->r.m)),
            pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
     /* The simulated machine's own report, as `plotkin sim` prints it. */
@@ -227,6 +249,8 @@ int cmd_serve(int argc, char **argv)
         printf("  (no machine summary: %s)\n", sim->r.err);
     }
     fflush(stdout);
+    if (opens >= 0)
+        close(opens);
     pk_serial_close(&ser);
     pk_serve_sim_free(sim);
     free(sim);

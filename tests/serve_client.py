@@ -240,6 +240,16 @@ def main():
     check("the valid lines between the bad ones all ran",
           near(mpos(st), (len(bad), 2 * len(bad) - 1, 0.0)), st)
 
+    # 7a. A connected client that does not read for a while loses nothing
+    # (an `ok` dropped here would hang a character-counting sender).
+    g.write(b"G0 X1 Y1\n$$\n")
+    time.sleep(2.5)
+    a = g.answer()
+    listing, _ = g.wait_for(lambda l: l.startswith("$132="), 5)
+    b = g.answer()
+    check("a client that stops reading for 2.5 s still gets every answer",
+          a == 0 and b == 0 and listing.startswith("$132="), (a, listing, b))
+
     # 7. Disconnect without reading the answers, then reconnect.
     g.write(b"G0 X3 Y4\n$$\n")
     time.sleep(0.05)
