@@ -61,6 +61,11 @@
  * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
+ * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
+ * derivative along the polygon index; uniform cubic (-1,0,1)/2), so den is
+ * that rational's denominator; irrational ones have den = 2^24 and positive
+ * weights summing to 2^24 (each rounded to nearest, the largest adjusted so
+ * that the sum stays 0). Tangents point forward (towards higher indices).
  *
  * Per-rule summary (generated):
  *   bspline:1 closed: anchors are vertices; uniform position (L0:1); tangent undefined (zero)

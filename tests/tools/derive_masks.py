@@ -985,11 +985,18 @@ def lcm_den(vals):
 
 
 def enc(m, anchor, irrational=False, primitive=False):
-    """(first, len, den, [w]) of a functional relative to its anchor."""
+    """(first, len, den, [w]) of a functional relative to its anchor.
+    primitive=True marks a tangent mask (normalised, see below)."""
     if m is None or not m:
         return (0, 0, 1, [])
     lo, hi = min(m), max(m)
     vals = [Fr(m.get(i, 0)) for i in range(lo, hi + 1)]
+    if primitive and not irrational:
+        # rational tangent: normalise to the derivative along the index, i.e.
+        # exactly +1 on L_j = j; den is then that rational's denominator
+        v1 = sum(v * (lo + k) for k, v in enumerate(vals))
+        if v1 != 0:
+            vals = [v / v1 for v in vals]
     if irrational:
         pos = sum(v for v in vals if v > 0)
         w = [int(round(v / pos * Q24)) for v in vals]
@@ -999,12 +1006,6 @@ def enc(m, anchor, irrational=False, primitive=False):
     else:
         den = lcm_den(vals)
         w = [int(v * den) for v in vals]
-        if primitive:
-            g = 0
-            for x in w:
-                g = math.gcd(g, x)
-            w = [x // g for x in w]
-            den = 1
     assert len(w) <= MAXLEN, (m, anchor)
     assert all(abs(x) < 2 ** 31 for x in w) and 0 < den < 2 ** 31
     return (lo - anchor, len(w), den, w)
@@ -1128,6 +1129,11 @@ HEADER_DOC = r"""/*
  * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
+ * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
+ * derivative along the polygon index; uniform cubic (-1,0,1)/2), so den is
+ * that rational's denominator; irrational ones have den = 2^24 and positive
+ * weights summing to 2^24 (each rounded to nearest, the largest adjusted so
+ * that the sum stays 0). Tangents point forward (towards higher indices).
  *
  * Per-rule summary (generated):
 """
@@ -1150,7 +1156,7 @@ def emit(outdir, rules):
     for r in rules:
         key = rule_key(r)
         up = enc(r.upos, 0)
-        ut = enc(r.utan, 0) if r.scheme == 'bspline' else enc(r.utan, 0, primitive=True)
+        ut = enc(r.utan, 0, primitive=True)
         pe, te, drop = [], [], 0
         for a, e in enumerate(r.end):
             if e is None:
@@ -1341,7 +1347,7 @@ def tables_of(r):
     """The encoded masks of rule r (what pk_masks.c holds)."""
     t = {'edge': r.edge, 'closed': r.closed, 'min_n': r.min_n,
          'up': enc(r.upos, 0),
-         'ut': enc(r.utan, 0) if r.scheme == 'bspline' else enc(r.utan, 0, primitive=True),
+         'ut': enc(r.utan, 0, primitive=True),
          'end': [], 'small': {}}
     for a, e in enumerate(r.end):
         if e is None:
