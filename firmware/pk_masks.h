@@ -52,7 +52,7 @@
  *  - Short polygons (n < min_n) get their own per-n masks (pk_limit_small_get),
  *    derived by following the refinement (which may grow, keep or shrink
  *    such a polygon) until the standard rules apply or the polygon becomes
- *    stationary; their slots are output positions 0..n-1 in polygon order.
+ *    stationary; their slots are output positions 0..A-1 in polygon order.
  *  - Degree 1: the limit is the polygon; the tangent at an interior vertex
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
@@ -201,10 +201,11 @@ struct pk_limit_rule {
 const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
 
 /**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..n-1 are output
- * positions in polygon order (not necessarily anchors: for even D an n = 2
- * polygon gives its two end points); call for every slot and emit the
- * non-NULL ones in order. first is relative to the slot.
+ * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
+ * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
+ * where the polygon's end points are the outputs) are output positions in
+ * polygon order; call for every slot and emit the non-NULL ones in order.
+ * first is relative to the slot.
  * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
  * @return the mask, or NULL: slot dropped / not derived.
  * Calling context: any (pure table lookup).

@@ -910,6 +910,10 @@ def small_true(rule, n, memo=None):
                     a, b = rows[max(k - 1, 0)], rows[min(k + 1, len(rows) - 1)]
                     t = strip({j: b.get(j, 0) - a.get(j, 0) for j in set(a) | set(b)})
                     pts.append((p, t))
+                if len(pts) > rule.nanchors(n):
+                    # a static polyline (replace, even D: n points, n-1 edge
+                    # slots); all on one segment: leave out the last interior one
+                    pts = pts[:rule.nanchors(n) - 1] + pts[-1:]
             res = pts + [None] * (max(rule.nanchors(n), len(pts)) - len(pts))
     memo[n] = res
     return res
@@ -1120,7 +1124,7 @@ HEADER_DOC = r"""/*
  *  - Short polygons (n < min_n) get their own per-n masks (pk_limit_small_get),
  *    derived by following the refinement (which may grow, keep or shrink
  *    such a polygon) until the standard rules apply or the polygon becomes
- *    stationary; their slots are output positions 0..n-1 in polygon order.
+ *    stationary; their slots are output positions 0..A-1 in polygon order.
  *  - Degree 1: the limit is the polygon; the tangent at an interior vertex
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
@@ -1233,10 +1237,11 @@ struct pk_limit_rule {
 const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
 
 /**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..n-1 are output
- * positions in polygon order (not necessarily anchors: for even D an n = 2
- * polygon gives its two end points); call for every slot and emit the
- * non-NULL ones in order. first is relative to the slot.
+ * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
+ * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
+ * where the polygon's end points are the outputs) are output positions in
+ * polygon order; call for every slot and emit the non-NULL ones in order.
+ * first is relative to the slot.
  * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
  * @return the mask, or NULL: slot dropped / not derived.
  * Calling context: any (pure table lookup).
@@ -1741,6 +1746,8 @@ def ref_limit(r, L):
         for p in pts:
             if p not in uniq:
                 uniq.append(p)
+        if len(uniq) > r.nanchors(n):       # even D: n-1 output slots (README)
+            uniq = uniq[:r.nanchors(n) - 1] + uniq[-1:]
         out = []
         for k, p in enumerate(uniq):
             a, b = uniq[max(k - 1, 0)], uniq[min(k + 1, len(uniq) - 1)]
@@ -1791,7 +1798,15 @@ VECTOR_CASES = (
     [(('dlg', 0, False, None), m, k, 2 + (m + k) % 2) for m in (2, 3, 4, 5, 7) for k in range(4)] +
     [(('dlg', 0, True, None), m, k, 2 + (m + k) % 2) for m in (3, 4, 5, 7) for k in range(4)] +
     [(('bspline', D, True, None), m, k, 2 + (m + k + D) % 2) for D in (1, 4, 5, 7) for m in (3, 4, 7)
-     for k in range(4)])
+     for k in range(4)] +
+    # the rest of the table: every other open rule (replace D=7 left out: its end
+    # tangent spans L0..L6, wider than the kernel's PK_LWIN = 8 window allows
+    # together with the uniform stencil; derive_masks.py still derives it)
+    [(('bspline', D, False, e), m, k, 2 + (m + k) % 2)
+     for D in (1, 4, 5, 6, 7) for e in ('none', 'replace') if (D, e) != (7, 'replace')
+     for m in (2, 3, 4, 5, 7, 9) for k in range(3)] +
+    [(('bspline', 1, False, 'clamped'), m, k, 2) for m in (2, 3, 5) for k in range(3)] +
+    [(('bspline', 6, True, None), m, k, 2 + (m + k) % 2) for m in (3, 4, 7) for k in range(3)])
 
 
 def write_vectors(outdir, rules, seed=20261122):
