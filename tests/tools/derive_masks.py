@@ -1049,7 +1049,9 @@ def describe_rule(r):
     if not r.closed:
         for a, e in enumerate(r.end):
             if e is None:
-                lines.append('    end anchor %d: dropped (its limit is the end point / outside the curve)' % a)
+                why = ('no full uniform stencil: outside the curve' if r.ends == 'none' else
+                       'its limit is the end point (duplicate) or it lies outside the curve')
+                lines.append('    end anchor %d: dropped (%s)' % (a, why))
             else:
                 lines.append('    end anchor %d: position %s; tangent %s%s' % (
                     a, fmt_mask(e[0]), fmt_mask(e[1], r.irrational[a]) if e[1] else 'undefined (zero)',
