@@ -52,7 +52,7 @@
  *  - Short polygons (n < min_n) get their own per-n masks (pk_limit_small_get),
  *    derived by following the refinement (which may grow, keep or shrink
  *    such a polygon) until the standard rules apply or the polygon becomes
- *    stationary; their slots are output positions 0..n-1 in polygon order.
+ *    stationary; their slots are output positions 0..A-1 in polygon order.
  *  - Degree 1: the limit is the polygon; the tangent at an interior vertex
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
@@ -61,6 +61,11 @@
  * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
+ * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
+ * derivative along the polygon index; uniform cubic (-1,0,1)/2), so den is
+ * that rational's denominator; irrational ones have den = 2^24 and positive
+ * weights summing to 2^24 (each rounded to nearest, the largest adjusted so
+ * that the sum stays 0). Tangents point forward (towards higher indices).
  *
  * Per-rule summary (generated):
  *   bspline:1 closed: anchors are vertices; uniform position (L0:1); tangent undefined (zero)
@@ -78,23 +83,23 @@
  *   chaikin none: anchors are edges; uniform position (L0:1/2, L1:1/2); tangent (L0:-1, L1:1)
  *       min_n 3 (per-n masks below that)
  *   bspline:3 none: anchors are vertices; uniform position (L-1:1/6, L0:2/3, L1:1/6); tangent (L-1:-1/2, L1:1/2)
- *       end anchor 0: dropped (its limit is the end point / outside the curve)
+ *       end anchor 0: dropped (no full uniform stencil: outside the curve)
  *       min_n 4 (per-n masks below that)
  *   bspline:4 none: anchors are edges; uniform position (L-1:1/24, L0:11/24, L1:11/24, L2:1/24); tangent (L-1:-1/6, L0:-1/2, L1:1/2, L2:1/6)
- *       end anchor 0: dropped (its limit is the end point / outside the curve)
+ *       end anchor 0: dropped (no full uniform stencil: outside the curve)
  *       min_n 5 (per-n masks below that)
  *   bspline:5 none: anchors are vertices; uniform position (L-2:1/120, L-1:13/60, L0:11/20, L1:13/60, L2:1/120); tangent (L-2:-1/24, L-1:-5/12, L1:5/12, L2:1/24)
- *       end anchor 0: dropped (its limit is the end point / outside the curve)
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
+ *       end anchor 0: dropped (no full uniform stencil: outside the curve)
+ *       end anchor 1: dropped (no full uniform stencil: outside the curve)
  *       min_n 6 (per-n masks below that)
  *   bspline:6 none: anchors are edges; uniform position (L-2:1/720, L-1:19/240, L0:151/360, L1:151/360, L2:19/240, L3:1/720); tangent (L-2:-1/120, L-1:-5/24, L0:-1/3, L1:1/3, L2:5/24, L3:1/120)
- *       end anchor 0: dropped (its limit is the end point / outside the curve)
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
+ *       end anchor 0: dropped (no full uniform stencil: outside the curve)
+ *       end anchor 1: dropped (no full uniform stencil: outside the curve)
  *       min_n 7 (per-n masks below that)
  *   bspline:7 none: anchors are vertices; uniform position (L-3:1/5040, L-2:1/42, L-1:397/1680, L0:151/315, L1:397/1680, L2:1/42, L3:1/5040); tangent (L-3:-1/720, L-2:-7/90, L-1:-49/144, L1:49/144, L2:7/90, L3:1/720)
- *       end anchor 0: dropped (its limit is the end point / outside the curve)
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
- *       end anchor 2: dropped (its limit is the end point / outside the curve)
+ *       end anchor 0: dropped (no full uniform stencil: outside the curve)
+ *       end anchor 1: dropped (no full uniform stencil: outside the curve)
+ *       end anchor 2: dropped (no full uniform stencil: outside the curve)
  *       min_n 8 (per-n masks below that)
  *   bspline:1 replace: anchors are vertices; uniform position (L0:1); tangent undefined (zero)
  *       end anchor 0: position (L0:1); tangent (L0:-1, L1:1)
@@ -105,31 +110,31 @@
  *       end window 2: spectrum {1, 0.75}; subdominant 3/4
  *   bspline:3 replace: anchors are vertices; uniform position (L-1:1/6, L0:2/3, L1:1/6); tangent (L-1:-1/2, L1:1/2)
  *       end anchor 0: position (L0:1); tangent (L0:-0.809016994, L1:0.618033989, L2:0.190983006) [irrational]
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
+ *       end anchor 1: dropped (its limit is the end point (duplicate) or it lies outside the curve)
  *       min_n 4 (per-n masks below that)
  *       end window 3: spectrum {1, 0.904508, 0.345492}; subdominant 5/8 + 1/8*sqrt(5)  (root of +16x^2 -20x +5)
  *   bspline:4 replace: anchors are edges; uniform position (L-1:1/24, L0:11/24, L1:11/24, L2:1/24); tangent (L-1:-1/6, L0:-1/2, L1:1/2, L2:1/6)
  *       end anchor 0: position (L0:1); tangent (L0:-0.628637289, L1:0.286880218, L2:0.312151431, L3:0.029605640) [irrational]
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
+ *       end anchor 1: dropped (its limit is the end point (duplicate) or it lies outside the curve)
  *       min_n 5 (per-n masks below that)
  *       end window 4: spectrum {1, 0.971478, 0.425743, 0.165279}; subdominant 0.971477966796997 (root of +512x^3 -800x^2 +330x -35)
  *   bspline:5 replace: anchors are vertices; uniform position (L-2:1/120, L-1:13/60, L0:11/20, L1:13/60, L2:1/120); tangent (L-2:-1/24, L-1:-5/12, L1:5/12, L2:1/24)
  *       end anchor 0: position (L0:1); tangent (L0:-0.493364922, L1:0.104752474, L2:0.274837119, L3:0.109528028, L4:0.004247301) [irrational]
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
- *       end anchor 2: dropped (its limit is the end point / outside the curve)
+ *       end anchor 1: dropped (its limit is the end point (duplicate) or it lies outside the curve)
+ *       end anchor 2: dropped (its limit is the end point (duplicate) or it lies outside the curve)
  *       min_n 6 (per-n masks below that)
  *       end window 5: spectrum {1, 0.993365, 0.472094, 0.204255, 0.0802862}; subdominant 0.993364921876114 (root of +8192x^4 -14336x^3 +7392x^2 -1290x +63)
  *   bspline:6 replace: anchors are edges; uniform position (L-2:1/720, L-1:19/240, L0:151/360, L1:151/360, L2:19/240, L3:1/720); tangent (L-2:-1/120, L-1:-5/24, L0:-1/3, L1:1/3, L2:5/24, L3:1/120)
  *       end anchor 0: position (L0:1); tangent (L0:-0.399021731, L1:0.031228062, L2:0.167480414, L3:0.167999791, L4:0.031755582, L5:0.000557881) [irrational]
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
- *       end anchor 2: dropped (its limit is the end point / outside the curve)
+ *       end anchor 1: dropped (its limit is the end point (duplicate) or it lies outside the curve)
+ *       end anchor 2: dropped (its limit is the end point (duplicate) or it lies outside the curve)
  *       min_n 7 (per-n masks below that)
  *       end window 6: spectrum {1, 0.998777, 0.49194, 0.230303, 0.0990401, 0.0393142}; subdominant 0.998777163186989 (root of +524288x^5 -974848x^4 +564480x^3 -123384x^2 +9912x -231)
  *   bspline:7 replace: anchors are vertices; uniform position (L-3:1/5040, L-2:1/42, L-1:397/1680, L0:151/315, L1:397/1680, L2:1/42, L3:1/5040); tangent (L-3:-1/720, L-2:-7/90, L-1:-49/144, L1:49/144, L2:7/90, L3:1/720)
  *       end anchor 0: position (L0:1); tangent (L0:-0.333209900, L1:0.007896831, L2:0.078712304, L3:0.159797505, L4:0.078796440, L5:0.007940636, L6:0.000066185) [irrational]
- *       end anchor 1: dropped (its limit is the end point / outside the curve)
- *       end anchor 2: dropped (its limit is the end point / outside the curve)
- *       end anchor 3: dropped (its limit is the end point / outside the curve)
+ *       end anchor 1: dropped (its limit is the end point (duplicate) or it lies outside the curve)
+ *       end anchor 2: dropped (its limit is the end point (duplicate) or it lies outside the curve)
+ *       end anchor 3: dropped (its limit is the end point (duplicate) or it lies outside the curve)
  *       min_n 8 (per-n masks below that)
  *       end window 7: spectrum {1, 0.999815, 0.4982, 0.243415, 0.112758, 0.0483423, 0.0193447}; subdominant 0.999814849472802 (root of +33554432x^7 -98041856x^6 +104267776x^5 -49576576x^4 +10784520x^3 -1026204x^2 +38337x -429)
  *   bspline:1 clamped: anchors are vertices; uniform position (L0:1); tangent undefined (zero)
@@ -196,10 +201,11 @@ struct pk_limit_rule {
 const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
 
 /**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..n-1 are output
- * positions in polygon order (not necessarily anchors: for even D an n = 2
- * polygon gives its two end points); call for every slot and emit the
- * non-NULL ones in order. first is relative to the slot.
+ * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
+ * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
+ * where the polygon's end points are the outputs) are output positions in
+ * polygon order; call for every slot and emit the non-NULL ones in order.
+ * first is relative to the slot.
  * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
  * @return the mask, or NULL: slot dropped / not derived.
  * Calling context: any (pure table lookup).

@@ -132,7 +132,8 @@ static unsigned limit_stage(const struct vcase *c, const int64_t L[][3], unsigne
         return cnt;
     }
     if (n < rule->min_n) {
-        for (unsigned a = 0; a < n; a++) {
+        unsigned slots = (rule->edge_anchors && n > 2) ? n - 1 : n;
+        for (unsigned a = 0; a < slots; a++) {
             const struct pk_mask *p = pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 0);
             const struct pk_mask *t = pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 1);
             if (!p)

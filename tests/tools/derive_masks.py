@@ -910,6 +910,10 @@ def small_true(rule, n, memo=None):
                     a, b = rows[max(k - 1, 0)], rows[min(k + 1, len(rows) - 1)]
                     t = strip({j: b.get(j, 0) - a.get(j, 0) for j in set(a) | set(b)})
                     pts.append((p, t))
+                if len(pts) > rule.nanchors(n):
+                    # a static polyline (replace, even D: n points, n-1 edge
+                    # slots); all on one segment: leave out the last interior one
+                    pts = pts[:rule.nanchors(n) - 1] + pts[-1:]
             res = pts + [None] * (max(rule.nanchors(n), len(pts)) - len(pts))
     memo[n] = res
     return res
@@ -985,11 +989,18 @@ def lcm_den(vals):
 
 
 def enc(m, anchor, irrational=False, primitive=False):
-    """(first, len, den, [w]) of a functional relative to its anchor."""
+    """(first, len, den, [w]) of a functional relative to its anchor.
+    primitive=True marks a tangent mask (normalised, see below)."""
     if m is None or not m:
         return (0, 0, 1, [])
     lo, hi = min(m), max(m)
     vals = [Fr(m.get(i, 0)) for i in range(lo, hi + 1)]
+    if primitive and not irrational:
+        # rational tangent: normalise to the derivative along the index, i.e.
+        # exactly +1 on L_j = j; den is then that rational's denominator
+        v1 = sum(v * (lo + k) for k, v in enumerate(vals))
+        if v1 != 0:
+            vals = [v / v1 for v in vals]
     if irrational:
         pos = sum(v for v in vals if v > 0)
         w = [int(round(v / pos * Q24)) for v in vals]
@@ -999,12 +1010,6 @@ def enc(m, anchor, irrational=False, primitive=False):
     else:
         den = lcm_den(vals)
         w = [int(v * den) for v in vals]
-        if primitive:
-            g = 0
-            for x in w:
-                g = math.gcd(g, x)
-            w = [x // g for x in w]
-            den = 1
     assert len(w) <= MAXLEN, (m, anchor)
     assert all(abs(x) < 2 ** 31 for x in w) and 0 < den < 2 ** 31
     return (lo - anchor, len(w), den, w)
@@ -1044,7 +1049,9 @@ def describe_rule(r):
     if not r.closed:
         for a, e in enumerate(r.end):
             if e is None:
-                lines.append('    end anchor %d: dropped (its limit is the end point / outside the curve)' % a)
+                why = ('no full uniform stencil: outside the curve' if r.ends == 'none' else
+                       'its limit is the end point (duplicate) or it lies outside the curve')
+                lines.append('    end anchor %d: dropped (%s)' % (a, why))
             else:
                 lines.append('    end anchor %d: position %s; tangent %s%s' % (
                     a, fmt_mask(e[0]), fmt_mask(e[1], r.irrational[a]) if e[1] else 'undefined (zero)',
@@ -1119,7 +1126,7 @@ HEADER_DOC = r"""/*
  *  - Short polygons (n < min_n) get their own per-n masks (pk_limit_small_get),
  *    derived by following the refinement (which may grow, keep or shrink
  *    such a polygon) until the standard rules apply or the polygon becomes
- *    stationary; their slots are output positions 0..n-1 in polygon order.
+ *    stationary; their slots are output positions 0..A-1 in polygon order.
  *  - Degree 1: the limit is the polygon; the tangent at an interior vertex
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
@@ -1128,6 +1135,11 @@ HEADER_DOC = r"""/*
  * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
+ * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
+ * derivative along the polygon index; uniform cubic (-1,0,1)/2), so den is
+ * that rational's denominator; irrational ones have den = 2^24 and positive
+ * weights summing to 2^24 (each rounded to nearest, the largest adjusted so
+ * that the sum stays 0). Tangents point forward (towards higher indices).
  *
  * Per-rule summary (generated):
 """
@@ -1150,7 +1162,7 @@ def emit(outdir, rules):
     for r in rules:
         key = rule_key(r)
         up = enc(r.upos, 0)
-        ut = enc(r.utan, 0) if r.scheme == 'bspline' else enc(r.utan, 0, primitive=True)
+        ut = enc(r.utan, 0, primitive=True)
         pe, te, drop = [], [], 0
         for a, e in enumerate(r.end):
             if e is None:
@@ -1227,10 +1239,11 @@ struct pk_limit_rule {
 const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
 
 /**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..n-1 are output
- * positions in polygon order (not necessarily anchors: for even D an n = 2
- * polygon gives its two end points); call for every slot and emit the
- * non-NULL ones in order. first is relative to the slot.
+ * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
+ * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
+ * where the polygon's end points are the outputs) are output positions in
+ * polygon order; call for every slot and emit the non-NULL ones in order.
+ * first is relative to the slot.
  * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
  * @return the mask, or NULL: slot dropped / not derived.
  * Calling context: any (pure table lookup).
@@ -1242,18 +1255,30 @@ const struct pk_mask *pk_limit_small_get(unsigned scheme, unsigned degree, unsig
         f.write('\n'.join(h) + '\n')
     # ---- source ----
     c = ['/*', ' * pk_masks.c -- GENERATED by tests/tools/derive_masks.py --emit firmware;',
-         ' * do not edit. Constant tables and their lookups (see pk_masks.h).', ' */',
+         ' * do not edit. Constant tables and their lookups (see pk_masks.h).', ' *',
+         ' * Flash: about 16 KB on a 32-bit target with every rule; build with',
+         ' * -DPK_MASKS_MAX_DEGREE=3 to keep only degrees 1..3 and DLG (the lookups then',
+         ' * return NULL for higher degrees, and the kernel reports PK_ENOTSUP).', ' */',
          '#include <stddef.h>', '#include "pk_masks.h"', '',
+         '#ifndef PK_MASKS_MAX_DEGREE', '#define PK_MASKS_MAX_DEGREE 7', '#endif', '',
          'struct pk_rule_entry {', '    uint8_t scheme, degree, closed, ends;',
          '    struct pk_limit_rule rule;', '};', '',
          'static const struct pk_rule_entry pk_rules[] = {']
+    def guard(D):
+        return '#if PK_MASKS_MAX_DEGREE >= %d' % D if D > 3 else None
+
     for key, r, up, ut, pe, te, drop in rule_rows:
+        g = guard(r.D)
+        if g:
+            c.append(g)
         c.append('    /* %s */' % r.name())
         c.append('    {%d, %d, %d, %d, {%d, %d, 0x%02x, %d,' % (key + (1 if r.edge else 0, len(r.end), drop, r.min_n)))
         c.append('        %s,' % c_mask(up))
         c.append('        %s,' % c_mask(ut))
         c.append('        {%s},' % ', '.join(c_mask(e) for e in pe))
         c.append('        {%s}}},' % ', '.join(c_mask(e) for e in te))
+        if g:
+            c.append('#endif')
     c.append('};\n')
     c.append('static const struct pk_mask pk_small_pool[] = {')
     for k in pool:
@@ -1262,7 +1287,12 @@ const struct pk_mask *pk_limit_small_get(unsigned scheme, unsigned degree, unsig
     c.append('struct pk_small_set {\n    uint8_t scheme, degree, ends, n;\n    uint16_t slot0;\n    uint8_t nslots;\n};\n')
     c.append('static const struct pk_small_set pk_small_sets[] = {')
     for key, n, first, cnt in small_sets:
+        g = guard(key[1])
+        if g:
+            c.append(g)
         c.append('    {%d, %d, %d, %d, %d, %d},' % (key[0], key[1], key[3], n, first, cnt))
+        if g:
+            c.append('#endif')
     c.append('};\n')
     c.append('/* {position, tangent} indices into pk_small_pool; 0xFFFF: slot dropped */')
     c.append('static const uint16_t pk_small_slots[][2] = {')
@@ -1324,7 +1354,7 @@ def tables_of(r):
     """The encoded masks of rule r (what pk_masks.c holds)."""
     t = {'edge': r.edge, 'closed': r.closed, 'min_n': r.min_n,
          'up': enc(r.upos, 0),
-         'ut': enc(r.utan, 0) if r.scheme == 'bspline' else enc(r.utan, 0, primitive=True),
+         'ut': enc(r.utan, 0, primitive=True),
          'end': [], 'small': {}}
     for a, e in enumerate(r.end):
         if e is None:
@@ -1718,6 +1748,8 @@ def ref_limit(r, L):
         for p in pts:
             if p not in uniq:
                 uniq.append(p)
+        if len(uniq) > r.nanchors(n):       # even D: n-1 output slots (README)
+            uniq = uniq[:r.nanchors(n) - 1] + uniq[-1:]
         out = []
         for k, p in enumerate(uniq):
             a, b = uniq[max(k - 1, 0)], uniq[min(k + 1, len(uniq) - 1)]
@@ -1768,7 +1800,15 @@ VECTOR_CASES = (
     [(('dlg', 0, False, None), m, k, 2 + (m + k) % 2) for m in (2, 3, 4, 5, 7) for k in range(4)] +
     [(('dlg', 0, True, None), m, k, 2 + (m + k) % 2) for m in (3, 4, 5, 7) for k in range(4)] +
     [(('bspline', D, True, None), m, k, 2 + (m + k + D) % 2) for D in (1, 4, 5, 7) for m in (3, 4, 7)
-     for k in range(4)])
+     for k in range(4)] +
+    # the rest of the table: every other open rule (replace D=7 left out: its end
+    # tangent spans L0..L6, wider than the kernel's PK_LWIN = 8 window allows
+    # together with the uniform stencil; derive_masks.py still derives it)
+    [(('bspline', D, False, e), m, k, 2 + (m + k) % 2)
+     for D in (1, 4, 5, 6, 7) for e in ('none', 'replace') if (D, e) != (7, 'replace')
+     for m in (2, 3, 4, 5, 7, 9) for k in range(3)] +
+    [(('bspline', 1, False, 'clamped'), m, k, 2) for m in (2, 3, 5) for k in range(3)] +
+    [(('bspline', 6, True, None), m, k, 2 + (m + k) % 2) for m in (3, 4, 7) for k in range(3)])
 
 
 def write_vectors(outdir, rules, seed=20261122):
