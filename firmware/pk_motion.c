@@ -440,9 +440,14 @@ bool pk_machine_reset(struct pk_machine *m)
     bool interrupted = !alarmed(m) && (busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
                                        || m->sg.prep_active || pk_stroke_is_open(&m->stroke));
     /* leave every step line low (also after an alarm: a line whose lowering
-     * failed must not swallow the next edge) */
-    (void)pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
+     * failed must not swallow the next edge). If that write fails the line
+     * may still be high, so the next rising edge the core counts might not
+     * be a pulse on the pin: stay in ALARM (after the flush, which clears
+     * alarms) until a reset whose write succeeds. */
+    int low_rc = pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
     pk_sg_flush(&m->sg);
+    if (low_rc != 0)
+        m->sg.alarm = PK_ALARM_STEP_WRITE;
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
     pk_stroke_reset(&m->stroke);

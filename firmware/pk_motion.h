@@ -279,8 +279,12 @@ void pk_machine_resume(struct pk_machine *m);
 
 /**
  * Reset (Grbl ctrl-X): stop the timer at once (no deceleration), lower the
- * step lines, drop every request, stroke, block and chunk, leave ALARM.
+ * step lines, drop every request, stroke, block and chunk, leave ALARM —
+ * unless lowering the step lines fails: then the machine stays in ALARM
+ * (PK_ALARM_STEP_WRITE), since a line left high would hide the next pulse.
  * The position stays exactly what was emitted; the next move starts there.
+ * Known limit: a pulse that is high when the reset comes is cut short (it
+ * was counted at its rising edge); see tests/fuzz/README.md, finding M2.
  * @return true if motion was interrupted (steps were still to be emitted):
  *         the position may be lost on a real machine (Grbl raises ALARM 3)
  * Calling context: MAIN.
