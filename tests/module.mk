@@ -1,0 +1,52 @@
+# tests/module.mk — fuzzing (libFuzzer) and the corpus replay run by `make test`.
+#
+#   make fuzz [FUZZ_SECONDS=30] [FUZZ_TARGETS="fuzz_refine ..."] [FUZZ_JOBS=1]
+#       builds every tests/fuzz/fuzz_*.c with clang -fsanitize=fuzzer,address,undefined
+#       and runs each for FUZZ_SECONDS, one after another, starting from the
+#       committed seeds in tests/fuzz/corpus/<target>/ (new inputs go to
+#       $(BUILD)/fuzz/work/<target>/, crashes to $(BUILD)/fuzz/artifacts/).
+#   make fuzz-build   only build them.
+#   make soak         the long runs that are kept out of `make test`.
+#
+# `make test` needs no clang: each target is also linked with the ordinary
+# compiler against tests/fuzz/replay_main.c (plain and ASan+UBSan), and
+# tests/e2e_fuzz_corpus.sh replays every committed corpus input through it.
+# Fuzz objects are compiled separately (with coverage instrumentation) under
+# $(BUILD)/fuzz/obj so they never mix with the gcc objects.
+
+FUZZ_CC      ?= clang
+FUZZ_SECONDS ?= 30
+FUZZ_SRC     := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_ALL     := $(patsubst tests/fuzz/%.c,%,$(FUZZ_SRC))
+FUZZ_TARGETS ?= $(FUZZ_ALL)
+FUZZ_SAN     := -fsanitize=address,undefined -fno-sanitize-recover=all
+FUZZ_CFLAGS  := -g -O1 -fno-omit-frame-pointer $(FUZZ_SAN) -fsanitize=fuzzer-no-link \
+                $(filter-out -Werror,$(WARN))
+FUZZ_OBJDIR  := $(BUILD)/fuzz/obj
+FUZZ_LIBSRC  := $(FW_SRC) $(HAL_SRC) $(SIM_SRC)
+FUZZ_LIBOBJ  := $(patsubst %.c,$(FUZZ_OBJDIR)/%.o,$(FUZZ_LIBSRC))
+FUZZ_BINS    := $(addprefix $(BUILD)/fuzz/,$(FUZZ_ALL))
+
+$(FUZZ_OBJDIR)/%.o: %.c
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) $(EXTRA_CFLAGS) -c $< -o $@
+$(BUILD)/fuzz/libfuzzdeps.a: $(FUZZ_LIBOBJ)
+	@mkdir -p $(@D); rm -f $@; ar rcs $@ $^
+$(BUILD)/fuzz/fuzz_%: $(FUZZ_OBJDIR)/tests/fuzz/fuzz_%.o $(BUILD)/fuzz/libfuzzdeps.a
+	$(FUZZ_CC) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $< $(BUILD)/fuzz/libfuzzdeps.a $(HOST_LIBS)
+
+.PHONY: fuzz fuzz-build soak
+fuzz-build: $(FUZZ_BINS)
+fuzz: fuzz-build
+	@bash tests/fuzz/run_fuzz.sh $(BUILD)/fuzz $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+# ---- corpus replay (part of make test) ------------------------------------
+FUZZ_REPLAY   := $(addprefix $(BUILD)/fuzz-replay/,$(FUZZ_ALL))
+FUZZ_REPLAY_S := $(addprefix $(SAN)/fuzz-replay/,$(FUZZ_ALL))
+$(BUILD)/fuzz-replay/%: $(BUILD)/obj/tests/fuzz/%.o $(BUILD)/obj/tests/fuzz/replay_main.o $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(CC) $(OPT) -o $@ $< $(BUILD)/obj/tests/fuzz/replay_main.o $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a $(HOST_LIBS)
+$(SAN)/fuzz-replay/%: $(SAN)/obj/tests/fuzz/%.o $(SAN)/obj/tests/fuzz/replay_main.o $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(CC) $(SANFLAGS) -o $@ $< $(SAN)/obj/tests/fuzz/replay_main.o $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
+test-build: $(FUZZ_REPLAY) $(FUZZ_REPLAY_S)
