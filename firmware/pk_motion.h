@@ -1,0 +1,291 @@
+/*
+ * pk_motion.h — the machine-level API of plotkin's motion core (public contract).
+ *
+ * One struct pk_machine is one machine: the stroke assembler (which feeds
+ * consecutive feed moves through the refinement kernel, pk_refine.h), the
+ * motion queue of planned blocks (pk_mq.h), the look-ahead planner
+ * (pk_planner.h) and the step generator (pk_stepgen.h). The caller owns the
+ * storage (static, stack or inside a bigger struct); there is no heap and no
+ * global state, so one process may run several machines side by side.
+ *
+ * Data flow and calling contexts:
+ *
+ *   producer (G-code, MAIN)            main loop (MAIN)               step timer (ISR)
+ *   pk_machine_move/pen/dwell/...  ->  pk_machine_poll():             pk_machine_timer_cb():
+ *     [request FIFO, PK_MACHINE_INQ]     strokes -> kernel -> planner   step/dir pulses,
+ *                                        -> motion queue -> chunks  ->  integer adds only
+ *
+ * Every request call only appends to a small request FIFO and never blocks.
+ * When the FIFO is full it returns PK_MOTION_EFULL and changes nothing: the
+ * producer keeps the request (e.g. stops reading lines), calls
+ * pk_machine_poll() and retries. pk_machine_room() says beforehand how many
+ * requests would be accepted, so a line parser can check before it consumes
+ * a line. Nothing is ever dropped: when the motion queue is full the kernel is
+ * simply not pulled (it is pull-based) and the FIFO waits.
+ *
+ * Strokes. Consecutive feed moves form a stroke. A stroke ends at a rapid, a
+ * pen change, a dwell, a feed-rate change, a smoothing-mode change, end of
+ * program, at a corner sharper than pk_smooth_cfg.sharp_turn_deg (kept sharp),
+ * and when nothing new has arrived while the motion queue is about to run dry
+ * (so a sender that stops mid-stroke still sees its stroke completed).
+ *
+ * Units (all integer; formats named in the type, ranges checked at the API):
+ *   pk_um_t         position, µm (pk_fixed.h), |v| <= PK_UM_MAX
+ *   pk_um_min_t     speed, µm per minute: a G-code F word (mm/min) with three
+ *                   decimals is exact; 1 .. PK_UM_MIN_MAX
+ *   pk_um_s2_t      acceleration, µm/s^2: Grbl's $120 (mm/s^2) with three
+ *                   decimals is exact; 1 .. PK_UM_S2_MAX
+ *   pk_spmm_q16_t   steps per mm in unsigned Q16.16 (80 steps/mm = 80 << 16);
+ *                   PK_SPMM_Q16_MIN .. PK_SPMM_Q16_MAX
+ *   pk_steps_t      position in whole motor steps
+ *   ticks           durations in HAL timer ticks (struct pk_hal.tick_hz)
+ *
+ * Position contract: the step position reported is exactly the number of step
+ * pulses the HAL accepted (signed by direction). A commanded target in µm maps
+ * to round(um * steps_per_mm / 1000) steps (ties away from zero), per axis,
+ * absolute; every move is the difference of two such roundings, so the sum of
+ * all moves never drifts, whatever the smoothing.
+ *
+ * Errors in the ISR (a HAL write returning non-zero) take one route: the
+ * machine latches PK_STATE_ALARM with a reason, writes nothing more to the
+ * step lines after the failing call (it does not even try to lower a step
+ * line whose raise failed), stops the timer, and keeps the reported position
+ * equal to the pulses actually emitted. Only pk_machine_reset() leaves ALARM.
+ */
+#ifndef PLOTKIN_PK_MOTION_H
+#define PLOTKIN_PK_MOTION_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "hal.h"
+#include "pk_fixed.h"
+#include "pk_refine.h"
+#include "pk_munits.h"
+#include "pk_mq.h"
+#include "pk_planner.h"
+#include "pk_stepgen.h"
+#include "pk_stroke.h"
+
+/** Requests (moves, pen, dwell, mode changes, end) buffered before poll. */
+#ifndef PK_MACHINE_INQ
+#define PK_MACHINE_INQ 8
+#endif
+
+/** Status codes of the machine API (distinct from enum pk_status). */
+enum pk_motion_status {
+    PK_MOTION_OK = 0,
+    PK_MOTION_EFULL = -20,  /**< request FIFO full: nothing changed; poll, then retry */
+    PK_MOTION_ERANGE = -21, /**< a value outside its documented range; nothing changed */
+    PK_MOTION_EINVAL = -22, /**< bad configuration (init / set_smoothing) */
+    PK_MOTION_EALARM = -23, /**< the machine is in ALARM: reset first; nothing changed */
+    PK_MOTION_EHAL = -24    /**< init: the HAL failed pk_hal_check() or a write failed */
+};
+
+/** Machine state as reported to the user (maps onto Grbl's Idle/Run/Hold/Alarm). */
+enum pk_machine_state {
+    PK_STATE_IDLE = 0,    /**< no motion executing and none planned */
+    PK_STATE_RUN = 1,     /**< executing or about to (blocks queued, timer armed) */
+    PK_STATE_HOLDING = 2, /**< feed hold requested, still decelerating (Grbl Hold:1) */
+    PK_STATE_HOLD = 3,    /**< feed hold complete, stopped, queue kept (Grbl Hold:0) */
+    PK_STATE_ALARM = 4    /**< a HAL write failed; outputs frozen until reset */
+};
+
+/** Why the machine is in ALARM. */
+enum pk_alarm {
+    PK_ALARM_NONE = 0,
+    PK_ALARM_STEP_WRITE = 1,  /**< pk_hal_step_write returned non-zero */
+    PK_ALARM_DIR_WRITE = 2,   /**< pk_hal_dir_write returned non-zero */
+    PK_ALARM_TOOL_WRITE = 3,  /**< pk_hal_tool_write returned non-zero */
+    PK_ALARM_TIMER = 4,       /**< timer_start failed */
+    PK_ALARM_INTERNAL = 5     /**< an invariant failed (a bug): motion stopped */
+};
+
+/** Kind of a linear move. */
+enum pk_move_kind {
+    PK_MOVE_FEED = 0,  /**< G1: at the given feed, smoothed within a stroke */
+    PK_MOVE_RAPID = 1  /**< G0: at the axes' max rates, never smoothed, ends the stroke */
+};
+
+/** Smoothing mode (per machine, changeable per program). */
+enum pk_smooth_mode {
+    PK_SMOOTH_OFF = 0,       /**< exact path (G61): the kernel is bypassed */
+    PK_SMOOTH_FIXED = 1,     /**< fixed scheme, degree and depth */
+    PK_SMOOTH_TOLERANCE = 2  /**< G64 P<T>: within T of the limit curve, fewest segments */
+};
+
+/** Smoothing policy. Zero-initialise, then set what you need. */
+struct pk_smooth_cfg {
+    uint8_t mode;            /**< enum pk_smooth_mode */
+    uint8_t scheme;          /**< enum pk_scheme (FIXED; TOLERANCE uses B-spline only) */
+    uint8_t degree;          /**< B-spline degree: FIXED 1..7; TOLERANCE 2 or 3 (0 = 3) */
+    uint8_t depth;           /**< FIXED: 0..PK_MAX_DEPTH; TOLERANCE: ignored (chosen) */
+    pk_um_t tolerance_um;    /**< TOLERANCE: 1 .. 10000 µm */
+    uint16_t sharp_turn_deg; /**< a vertex whose direction turns by MORE than this
+                                  many degrees (1..180) is kept sharp: the stroke is
+                                  split there. 180 never splits. 0 means 60. */
+};
+
+/** Machine settings (Grbl $-settings in plotkin units). Zero-initialise, then fill. */
+struct pk_motion_cfg {
+    uint8_t axes;                             /**< axes driven, 2..PK_AXES (0 = PK_AXES) */
+    pk_spmm_q16_t steps_per_mm_q16[PK_AXES];  /**< $100.. steps per mm, Q16.16 */
+    pk_um_min_t max_rate[PK_AXES];            /**< $110.. per-axis max speed, µm/min */
+    pk_um_s2_t accel[PK_AXES];                /**< $120.. per-axis acceleration, µm/s^2 */
+    pk_um_t junction_dev_um;                  /**< $11 junction deviation, 0..10000 µm */
+    uint32_t step_pulse_ticks;                /**< minimum step pulse width, >= 1 tick */
+    uint32_t dir_setup_ticks;                 /**< direction set-up before a step edge, ticks */
+    uint32_t pen_settle_ms;                   /**< dwell after each pen change, 0..60000 ms */
+    uint8_t pen_down_level;                   /**< logical tool level meaning "pen down" (0/1) */
+    struct pk_smooth_cfg smooth;              /**< initial smoothing policy */
+};
+
+/** One request waiting in the FIFO (private). */
+struct pk_req {
+    uint8_t type;              /**< PK_REQ_* (pk_motion.c) */
+    uint8_t kind;              /**< move kind / pen level */
+    pk_um_t p[PK_AXES];        /**< move target, µm */
+    uint32_t arg;              /**< feed µm/min, dwell ms */
+    struct pk_smooth_cfg smooth;
+};
+
+/**
+ * One machine. Caller-owned; all members are private (use the functions).
+ * Lifetime: valid from pk_machine_init until the caller frees the storage;
+ * the HAL instance passed to init must outlive it. Never copy a running one
+ * (the timer holds its address).
+ */
+struct pk_machine {
+    struct pk_motion_cfg cfg;
+    const struct pk_hal *hal;
+    struct pk_req inq[PK_MACHINE_INQ];   /**< request FIFO (MAIN only) */
+    uint8_t inq_head, inq_count;
+    struct pk_stroke stroke;             /**< stroke assembler + kernel */
+    struct pk_mq mq;                     /**< planned blocks, shared with the ISR */
+    struct pk_planner planner;           /**< look-ahead (MAIN) */
+    struct pk_stepgen sg;                /**< chunk prep (MAIN) + pulse emission (ISR) */
+    pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
+    pk_um_t target_um[PK_AXES];          /**< last requested position, µm (MAIN) */
+    pk_um_s_t stroke_feed;               /**< feed of the open stroke, µm/s (MAIN) */
+    uint32_t lines_planned;              /**< line blocks planned since init (MAIN) */
+    bool hold_req;                       /**< feed hold requested (MAIN) */
+};
+
+/**
+ * Initialise a machine: validate cfg, check the HAL, write all direction lines
+ * to logical 0, all step lines low, enable the drivers (if the HAL has
+ * enable_write), pen up. Position = 0 steps on every axis.
+ * @param m    storage to initialise (any previous content ignored)
+ * @param cfg  settings, copied
+ * @param hal  HAL instance; must outlive m
+ * @retval PK_MOTION_OK      ready
+ * @retval PK_MOTION_EINVAL  a setting is out of range (nothing else is valid then)
+ * @retval PK_MOTION_EHAL    pk_hal_check failed or an initial write failed
+ * Calling context: MAIN, timer not running.
+ */
+int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
+                    const struct pk_hal *hal);
+
+/**
+ * Request a straight move to an absolute target (µm, axes beyond cfg.axes
+ * ignored). FEED moves join the current stroke (a different feed ends it);
+ * RAPID moves end the stroke and run at the axes' max rates (feed ignored).
+ * @param feed  µm/min (PK_MOVE_FEED: 1..PK_UM_MIN_MAX; clamped to the axes'
+ *              max rates along the move's direction by the planner)
+ * @retval PK_MOTION_OK      queued
+ * @retval PK_MOTION_EFULL   the request FIFO is full; nothing changed
+ * @retval PK_MOTION_ERANGE  a coordinate beyond ±PK_UM_MAX or feed out of range
+ * @retval PK_MOTION_EALARM  machine in ALARM
+ * Calling context: MAIN.
+ */
+int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES],
+                    pk_um_min_t feed, enum pk_move_kind kind);
+
+/** Request pen down (down = true) or up: ends the stroke, brings the machine to
+ *  a stop, switches the tool output (cfg.pen_down_level) and dwells
+ *  cfg.pen_settle_ms. Returns as pk_machine_move. Calling context: MAIN. */
+int pk_machine_pen(struct pk_machine *m, bool down);
+
+/** Request a dwell (G4) of ms milliseconds (0..PK_DWELL_MS_MAX) after a full
+ *  stop. Returns as pk_machine_move. Calling context: MAIN. */
+int pk_machine_dwell(struct pk_machine *m, uint32_t ms);
+#define PK_DWELL_MS_MAX 3600000u
+
+/** Request a new smoothing policy (G61 / G64 P<T>); ends the stroke; applies
+ *  to the following moves. PK_MOTION_EINVAL if *s is invalid (nothing changed),
+ *  else returns as pk_machine_move. Calling context: MAIN. */
+int pk_machine_set_smoothing(struct pk_machine *m, const struct pk_smooth_cfg *s);
+
+/** Request end of program (M2/M30): ends the stroke so that everything queued
+ *  executes and the last move stops. Returns as pk_machine_move. MAIN. */
+int pk_machine_end(struct pk_machine *m);
+
+/** Requests that would be accepted right now (0 = full; call poll and retry).
+ *  Calling context: MAIN. */
+uint32_t pk_machine_room(const struct pk_machine *m);
+
+/**
+ * Main-loop work: take requests from the FIFO, feed strokes through the
+ * kernel, pull refined points into the planner while the motion queue has
+ * room, replan, prepare step chunks, and arm the HAL timer when there is motion
+ * to run (timer_start with pk_machine_timer_cb and m). timer_start may come
+ * right after the callback returned 0, before a threaded backend has acted on
+ * that 0: the backend must then keep the new arming. Bounded work per call;
+ * call it often (at least every millisecond of motion the chunk buffer holds,
+ * see PK_SG_CHUNKS). Harmless in ALARM (does nothing).
+ * Calling context: MAIN.
+ */
+void pk_machine_poll(struct pk_machine *m);
+
+/**
+ * The step timer callback (a pk_hal_timer_cb): arg is the struct pk_machine.
+ * Emits step/dir edges through pk_hal_step_write / pk_hal_dir_write (and the
+ * tool output for pen blocks) using integer adds and compares only, and
+ * returns the absolute tick at which it must run next, or 0 when there is
+ * nothing left to do (the timer stops; poll re-arms it).
+ * Calling context: ISR (or the simulator's loop), never re-entered.
+ */
+uint64_t pk_machine_timer_cb(void *arg, uint64_t now_ticks);
+
+/** Feed hold (Grbl '!'): decelerate along the path within the acceleration
+ *  limits, stop, keep the remaining queue and the exact position.
+ *  State becomes HOLDING, then HOLD. No effect when idle or in ALARM. MAIN. */
+void pk_machine_hold(struct pk_machine *m);
+
+/** Cycle start / resume (Grbl '~') after a hold: accelerate from rest and
+ *  continue the same path. No effect unless HOLDING/HOLD. MAIN. */
+void pk_machine_resume(struct pk_machine *m);
+
+/**
+ * Reset (Grbl ctrl-X): stop the timer at once (no deceleration), lower the
+ * step lines, drop every request, stroke, block and chunk, leave ALARM.
+ * The position stays exactly what was emitted; the next move starts there.
+ * @return true if motion was interrupted (steps were still to be emitted):
+ *         the position may be lost on a real machine (Grbl raises ALARM 3)
+ * Calling context: MAIN.
+ */
+bool pk_machine_reset(struct pk_machine *m);
+
+/** Position in steps actually emitted (consistent snapshot). MAIN. */
+void pk_machine_position_steps(const struct pk_machine *m, pk_steps_t out[PK_AXES]);
+
+/** The same converted to µm: round(steps * 1000 / steps_per_mm). MAIN. */
+void pk_machine_position_um(const struct pk_machine *m, pk_um_t out[PK_AXES]);
+
+/** Current state. MAIN. */
+enum pk_machine_state pk_machine_state(const struct pk_machine *m);
+
+/** Alarm reason (PK_ALARM_NONE unless in ALARM). MAIN. */
+enum pk_alarm pk_machine_alarm(const struct pk_machine *m);
+
+/** Planned blocks in the motion queue (including the one executing) and its
+ *  capacity PK_MQ_CAP. MAIN. */
+uint32_t pk_machine_queue_fill(const struct pk_machine *m);
+
+/** Straight segments (line blocks with steps) planned since init: what the
+ *  smoothing policy turned the program into. MAIN. */
+uint32_t pk_machine_lines_planned(const struct pk_machine *m);
+
+/** Path speed of the chunk being executed, µm/min (0 when stopped). MAIN. */
+pk_um_min_t pk_machine_speed(const struct pk_machine *m);
+
+#endif

@@ -1,0 +1,68 @@
+/*
+ * pk_mq.h — the motion queue: a fixed-capacity ring of planned blocks.
+ *
+ * A block is one straight move in steps (with the geometry the planner needs)
+ * or a stop-type action (pen change, dwell). The stroke assembler appends at
+ * the head; the planner rewrites the speeds of queued blocks; the step
+ * generator's chunk preparation consumes from the tail. All three run in the
+ * main loop: the interrupt never touches this ring. What crosses to the step
+ * timer is the chunk ring of pk_stepgen.h (single producer, single consumer,
+ * C11 atomics), so a full queue here simply means "do not pull the kernel".
+ */
+#ifndef PLOTKIN_PK_MQ_H
+#define PLOTKIN_PK_MQ_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "pk_munits.h"
+#include "pk_refine.h"
+
+/** Blocks of look-ahead. More blocks: higher speeds on dense polylines. */
+#ifndef PK_MQ_CAP
+#define PK_MQ_CAP 32
+#endif
+
+enum pk_block_type {
+    PK_BLK_LINE = 0,  /**< straight move */
+    PK_BLK_PEN = 1,   /**< set the tool output, then wait (stop point) */
+    PK_BLK_DWELL = 2  /**< wait (stop point) */
+};
+
+/** One planned block. Geometry is fixed at push; the planner owns v2_entry/v2_exit. */
+struct pk_block {
+    uint8_t type;              /**< enum pk_block_type */
+    uint8_t dir_mask;          /**< LINE: logical direction per axis, 1 = positive */
+    uint8_t tool;              /**< PEN: logical tool level */
+    uint8_t pad_;
+    uint32_t steps[PK_AXES];   /**< LINE: |steps| per axis */
+    uint32_t events;           /**< LINE: max(steps) (Bresenham events, >= 1) */
+    uint32_t len_q8;           /**< LINE: path length, µm Q8 (< 2^31) */
+    pk_q30_t u[PK_AXES];       /**< LINE: unit direction, Q1.30 */
+    pk_um_s2_t accel;          /**< LINE: accel along the move, axis-limited, µm/s^2 */
+    pk_v2_q4_t v2_nom;         /**< LINE: nominal speed^2 (feed, axis-limited) */
+    pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 (junction and both nominals) */
+    pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
+    uint32_t wait_ms;          /**< PEN/DWELL: wait */
+};
+
+/** The ring (MAIN only). */
+struct pk_mq {
+    struct pk_block b[PK_MQ_CAP];
+    uint16_t tail;   /**< oldest block */
+    uint16_t count;  /**< blocks queued */
+};
+
+/** Empty the queue. */
+void pk_mq_init(struct pk_mq *q);
+/** Free slots. */
+uint32_t pk_mq_room(const struct pk_mq *q);
+/** Blocks queued. */
+uint32_t pk_mq_count(const struct pk_mq *q);
+/** The i-th oldest block (0 = tail), i < count; NULL otherwise. */
+struct pk_block *pk_mq_at(struct pk_mq *q, uint32_t i);
+/** Reserve the next slot at the head (zeroed) and count it; NULL if full. */
+struct pk_block *pk_mq_push(struct pk_mq *q);
+/** Drop the tail block (no-op when empty). */
+void pk_mq_pop(struct pk_mq *q);
+
+#endif

@@ -1,0 +1,72 @@
+/*
+ * pk_munits.h — the fixed-point formats of the motion core, and the integer
+ * helpers (square root, µm <-> steps) every motion module shares.
+ *
+ * pk_fixed.h (owned by the kernel) holds the geometric formats; these are the
+ * kinematic ones. Each has one typedef whose name carries the unit, and a
+ * validated range that keeps every intermediate product of the planner and the
+ * step generator inside 64 bits (the bounds are derived next to each use).
+ *
+ *   pk_um_min_t    uint32  speed, µm/min (G-code F in mm/min, 3 decimals exact)
+ *   pk_um_s_t      uint32  speed, µm/s (internal; = µm/min / 60, rounded)
+ *   pk_um_s2_t     uint32  acceleration, µm/s^2
+ *   pk_v2_q4_t     uint64  squared speed, (µm/s)^2 in Q4 (1 LSB = 1/16 (µm/s)^2)
+ *   pk_spmm_q16_t  uint32  steps per mm, unsigned Q16.16
+ *   pk_steps_t     int32   whole motor steps
+ *   pk_tq8_t       uint64  time in timer ticks, Q8 (1 LSB = 1/256 tick)
+ */
+#ifndef PLOTKIN_PK_MUNITS_H
+#define PLOTKIN_PK_MUNITS_H
+
+#include <stdint.h>
+#include "pk_fixed.h"
+
+typedef uint32_t pk_um_min_t;
+#define PK_UM_MIN_MAX 60000000u          /**< 60 m/min = 1 m/s */
+
+typedef uint32_t pk_um_s_t;
+#define PK_UM_S_MAX (PK_UM_MIN_MAX / 60u) /**< 1,000,000 µm/s < 2^20 */
+
+typedef uint32_t pk_um_s2_t;
+#define PK_UM_S2_MAX 100000000u          /**< 100 m/s^2 < 2^27 */
+
+/** (µm/s)^2 in Q4: at most (2^20)^2 * 16 = 2^44 for speeds, and v^2 + 2*a*s
+ *  with a < 2^27, s < 2^23 µm stays below 2^51 * 16 = 2^55. */
+typedef uint64_t pk_v2_q4_t;
+#define PK_V2_Q4_SHIFT 4
+
+typedef uint32_t pk_spmm_q16_t;
+#define PK_SPMM_Q16_SHIFT 16
+#define PK_SPMM_Q16_MIN ((pk_spmm_q16_t)1 << 12)        /**< 1/16 step per mm */
+#define PK_SPMM_Q16_MAX ((pk_spmm_q16_t)10000u << 16)   /**< 10,000 steps per mm */
+
+typedef int32_t pk_steps_t;
+
+typedef uint64_t pk_tq8_t;
+#define PK_TQ8_SHIFT 8
+
+/** Compiler barrier: memory accesses are not moved across it. Orders the
+ *  chunk data against the ring index shared with the timer callback (one
+ *  core: the hardware keeps program order for an interrupt; only the
+ *  compiler needs telling). */
+#if defined(__GNUC__) || defined(__clang__)
+#define PK_BARRIER() __atomic_signal_fence(__ATOMIC_SEQ_CST)
+#else
+#define PK_BARRIER() ((void)0)
+#endif
+
+/** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
+uint32_t pk_isqrt64(uint64_t x);
+
+/** Absolute step position of a coordinate: round(um * spmm / 1000) with ties
+ *  away from zero. |um| <= PK_UM_MAX and spmm <= PK_SPMM_Q16_MAX keep the
+ *  product below 2^21 * 2^30 = 2^51. */
+pk_steps_t pk_um_to_steps(pk_um_t um, pk_spmm_q16_t spmm);
+
+/** Inverse for reports: round(steps * 1000 / spmm), ties away from zero. */
+pk_um_t pk_steps_to_um(pk_steps_t steps, pk_spmm_q16_t spmm);
+
+/** µm/min -> µm/s, rounded to nearest (at least 1 for a non-zero input). */
+pk_um_s_t pk_um_min_to_um_s(pk_um_min_t v);
+
+#endif

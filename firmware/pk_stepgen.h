@@ -1,0 +1,138 @@
+/*
+ * pk_stepgen.h — step generator: planned blocks -> chunks (main loop) ->
+ * step/dir pulses (timer callback, integer adds only).
+ *
+ * Main loop (pk_sg_prep): takes the tail block of the motion queue and cuts
+ * its trapezoidal speed profile into chunks of consecutive Bresenham events
+ * (one event = one step of the block's dominant axis). For each chunk it
+ * computes, from the exact kinematics (v^2 linear in distance, so the time
+ * between two points of one phase is 2*ds/(v_a+v_b)), the first interval, the
+ * last interval and the total, and fits the quadratic recurrence
+ *
+ *     t += I;  I += A;  A += B;        (ticks in Q16, 64-bit)
+ *
+ * that matches all three. Rounding is absorbed: the time the recurrence really
+ * produces is tracked and the next chunk starts from it, so timing never
+ * drifts and the step counts are exact by construction (Bresenham over the
+ * block's event count).
+ *
+ * Timer callback (pk_sg_isr): pops chunks from a single-producer /
+ * single-consumer ring (the head is written only by the main loop, the tail
+ * only by the callback; both are single bytes, so every read and write of
+ * them is atomic even on 8-bit targets, and PK_BARRIER orders the chunk
+ * data against the index that publishes it), raises the step lines of the axes due
+ * at an event, lowers them step_pulse_ticks later, writes a direction change
+ * at least dir_setup_ticks before the next step edge. A failing HAL write
+ * latches an alarm; nothing more is written to the step lines and the
+ * position counts only the pulses the HAL accepted.
+ */
+#ifndef PLOTKIN_PK_STEPGEN_H
+#define PLOTKIN_PK_STEPGEN_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "hal.h"
+#include "pk_mq.h"
+
+/** Chunks buffered ahead of the timer (power of two). */
+#ifndef PK_SG_CHUNKS
+#define PK_SG_CHUNKS 16
+#endif
+#if PK_SG_CHUNKS > 128 || (PK_SG_CHUNKS & (PK_SG_CHUNKS - 1)) != 0
+#error "PK_SG_CHUNKS must be a power of two <= 128"
+#endif
+/** Most events in one chunk. */
+#ifndef PK_SG_MAX_EVENTS
+#define PK_SG_MAX_EVENTS 64
+#endif
+
+enum pk_sg_chunk_kind { PK_SGC_STEPS = 0, PK_SGC_TOOL = 1, PK_SGC_WAIT = 2 };
+
+/** One chunk (private). */
+struct pk_sg_chunk {
+    uint8_t kind;              /**< enum pk_sg_chunk_kind */
+    uint8_t first;             /**< STEPS: first chunk of a block: load steps/dir */
+    uint8_t dir_mask;          /**< STEPS first: logical directions */
+    uint8_t tool;              /**< TOOL: logical level */
+    uint32_t n;                /**< STEPS: events in the chunk (>= 1) */
+    int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
+    uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
+    uint32_t events;           /**< STEPS first: events of the block */
+    uint64_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
+    pk_um_s_t v_um_s;          /**< speed at the chunk's end (reports) */
+};
+
+/** Timer-side phase (private). */
+enum pk_sg_phase { PK_SGP_GAP = 0, PK_SGP_STEP_DUE = 1, PK_SGP_PULSE = 2 };
+
+/** Step generator state (private members; use the functions). */
+struct pk_stepgen {
+    /* ---- configuration (set at init, read-only afterwards) ---- */
+    uint8_t axes;
+    uint32_t tick_hz;
+    uint32_t pulse_ticks, dir_setup_ticks;
+
+    /* ---- main-loop preparation state ---- */
+    bool prep_active;          /**< the mq tail block is being cut into chunks */
+    bool hold;                 /**< decelerate to a stop, ignoring the plan */
+    bool held;                 /**< hold reached speed 0: no more chunks until resume */
+    uint32_t e;                /**< events already prepared in the tail block */
+    uint32_t s_q8;             /**< distance of event e from the block start, µm Q8 */
+    pk_v2_q4_t v2;             /**< speed^2 at event e */
+    int64_t lag_q16;           /**< emitted time minus exact time at event e, ticks Q16 */
+
+    /* ---- ring (head: MAIN writes; tail: ISR writes) ---- */
+    struct pk_sg_chunk ring[PK_SG_CHUNKS];
+    volatile uint8_t head;     /**< chunks published (mod 256) */
+    volatile uint8_t tail;     /**< chunks consumed (mod 256) */
+
+    /* ---- timer-side state (ISR only, except as noted) ---- */
+    uint8_t phase;             /**< enum pk_sg_phase */
+    uint8_t dir_cur;           /**< direction lines as last written (logical) */
+    uint8_t mask_due;          /**< axes to step at the pending edge */
+    uint32_t left;             /**< events left in the current chunk */
+    int64_t I, A, B;           /**< recurrence state, ticks Q16 */
+    uint64_t next_q16;         /**< absolute tick (Q16) of the last scheduled event */
+    uint64_t earliest;         /**< no step edge before this tick (dir set-up) */
+    uint32_t steps[PK_AXES];
+    uint32_t events;
+    int32_t acc[PK_AXES];      /**< Bresenham accumulators */
+    volatile uint8_t busy;     /**< 1 from timer_start until the ISR returns 0 */
+    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
+    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
+                                    torn read on 8-bit targets only skews a report) */
+    pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
+};
+
+/** Initialise (empty ring, position 0, dir lines assumed logical 0). */
+void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,
+                uint32_t dir_setup_ticks);
+
+/**
+ * Prepare chunks from the tail of q while the ring has room. Pops a block
+ * from q once all its chunks are in the ring. MAIN.
+ * @return true if at least one chunk was added
+ */
+bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q);
+
+/** Speed^2 and remaining length of the tail block as the planner must see
+ *  them (entry fixed at the prepared state). MAIN. */
+void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *v2_now,
+                      uint32_t *rem_q8);
+
+/** Request / cancel a feed hold (MAIN). Cancel only after the ring drained. */
+void pk_sg_set_hold(struct pk_stepgen *sg, bool hold);
+
+/** Chunks waiting in the ring (MAIN or ISR). */
+uint32_t pk_sg_pending(const struct pk_stepgen *sg);
+
+/** The timer work: see the file comment. Returns the next tick, 0 to stop. ISR. */
+uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now);
+
+/** Drop everything queued and the timer-side state, keep the position. Call
+ *  only with the timer stopped. MAIN. */
+void pk_sg_flush(struct pk_stepgen *sg);
+
+#endif

@@ -1,0 +1,149 @@
+/*
+ * test_motion_planner.c — the planner and the integer helpers on their own:
+ * the speed plan obeys every constraint it promises (checked pairwise on the
+ * planned numbers, for random polylines), the square root is the exact floor,
+ * and µm -> steps rounding agrees with a double reference.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include "pk_motion.h"
+#include "th.h"
+
+int th_main(int argc, char **argv);
+
+static uint64_t rng = 88172645463325252ull;
+static uint64_t xr(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return rng;
+}
+
+static void test_isqrt64_is_the_exact_floor_everywhere(void)
+{
+    static const uint64_t edge[] = { 0, 1, 2, 3, 4, 15, 16, 17, UINT32_MAX, (uint64_t)UINT32_MAX * UINT32_MAX,
+                                     (uint64_t)UINT32_MAX * UINT32_MAX - 1, UINT64_MAX };
+    for (unsigned k = 0; k < TH_COUNT(edge); k++) {
+        uint64_t x = edge[k], r = pk_isqrt64(x);
+        TH_EXPECT(r * r <= x);
+        TH_EXPECT((r + 1) * (r + 1) > x || r == UINT32_MAX);
+    }
+    unsigned bad = 0;
+    for (int k = 0; k < 200000; k++) {
+        uint64_t x = xr() >> (xr() % 64);
+        uint64_t r = pk_isqrt64(x);
+        if (!(r * r <= x && (r == UINT32_MAX || (r + 1) * (r + 1) > x)))
+            bad++;
+    }
+    TH_EXPECT_EQ(bad, 0);
+}
+
+static void test_micrometres_round_to_the_nearest_step_like_a_double_reference(void)
+{
+    unsigned bad = 0;
+    for (int k = 0; k < 200000; k++) {
+        pk_um_t um = (pk_um_t)((int64_t)(xr() % (2u * PK_UM_MAX + 1)) - PK_UM_MAX);
+        pk_spmm_q16_t s = PK_SPMM_Q16_MIN + (pk_spmm_q16_t)(xr() % (PK_SPMM_Q16_MAX - PK_SPMM_Q16_MIN));
+        double exact = (double)um * (double)s / 65536.0 / 1000.0;
+        long want = lround(exact);
+        /* skip values within 1e-6 of a tie, where double itself is unsure */
+        if (fabs(fabs(exact - trunc(exact)) - 0.5) < 1e-6)
+            continue;
+        bad += pk_um_to_steps(um, s) != want;
+        /* and back: within half a step of the original */
+        pk_um_t back = pk_steps_to_um((pk_steps_t)want, s);
+        double step_um = 1000.0 * 65536.0 / s;
+        bad += fabs((double)back - (double)um) > step_um / 2 + 1.0;
+    }
+    TH_EXPECT_EQ(bad, 0);
+}
+
+/* Every planned block: exit <= nominal, exit <= next entry ceiling (junction),
+ * exit reachable from entry within the length (accelerating) and the entry
+ * reachable backwards (decelerating), newest exit 0. Checked in doubles. */
+static void test_replanned_speeds_respect_every_constraint_on_random_polylines(void)
+{
+    static struct pk_mq q;
+    static struct pk_planner p;
+    struct pk_planner_limits lim;
+    memset(&lim, 0, sizeof lim);
+    lim.axes = 2;
+    lim.max_rate[0] = 100000;
+    lim.max_rate[1] = 70000;
+    lim.accel[0] = 1000000;
+    lim.accel[1] = 500000;
+    lim.junction_dev_um = 20;
+    unsigned bad = 0, blocks = 0, stops_ok = 0;
+    for (int run = 0; run < 200; run++) {
+        pk_mq_init(&q);
+        pk_planner_init(&p, &lim);
+        int32_t pos[2] = { 0, 0 };
+        int n = 2 + (int)(xr() % (PK_MQ_CAP - 2));
+        for (int k = 0; k < n; k++) {
+            int32_t d[PK_AXES] = { 0 };
+            pk_steps_t st[PK_AXES] = { 0 };
+            int mag = (xr() % 3 == 0) ? 20000 : 500;
+            d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
+            d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
+            st[0] = (pk_steps_t)(d[0] * 80 / 1000);
+            st[1] = (pk_steps_t)(d[1] * 80 / 1000);
+            if (xr() % 17 == 0)
+                (void)pk_planner_add_stop(&p, &q, PK_BLK_DWELL, 0, 0);
+            else
+                (void)pk_planner_add_line(&p, &q, d, st, (pk_um_s_t)(1000 + xr() % 120000));
+            pos[0] += d[0];
+            pos[1] += d[1];
+        }
+        pk_v2_q4_t v2_now = 0;
+        pk_planner_replan(&p, &q, v2_now, pk_mq_count(&q) ? pk_mq_at(&q, 0)->len_q8 : 0);
+        double entry = 0;
+        uint32_t cnt = pk_mq_count(&q);
+        for (uint32_t k = 0; k < cnt; k++) {
+            struct pk_block *b = pk_mq_at(&q, k);
+            blocks++;
+            if (b->type != PK_BLK_LINE) {
+                bad += b->v2_exit != 0;
+                entry = 0;
+                continue;
+            }
+            double ex = (double)b->v2_exit / 16, nom = (double)b->v2_nom / 16;
+            double two_al = 2.0 * b->accel * (b->len_q8 / 256.0);
+            if (k > 0)
+                bad += entry > (double)b->v2_junction / 16 * (1 + 1e-9) + 1;
+            bad += ex > nom + 1;
+            bad += ex > entry + two_al * (1 + 1e-6) + 16;  /* reachable accelerating */
+            bad += entry > ex + two_al * (1 + 1e-6) + 16;  /* and decelerating */
+            entry = ex;
+        }
+        struct pk_block *last = pk_mq_at(&q, cnt - 1);
+        stops_ok += last->v2_exit == 0;
+    }
+    TH_EXPECT_EQ(bad, 0);
+    TH_EXPECT_EQ(stops_ok, 200); /* the newest block always ends at rest */
+    TH_EXPECT(blocks > 1000);
+}
+
+static void test_a_straight_continuation_is_not_slowed_by_the_junction(void)
+{
+    pk_q30_t u[PK_AXES] = { 0 };
+    u[0] = (pk_q30_t)lround(0.6 * PK_Q30_ONE);
+    u[1] = (pk_q30_t)lround(0.8 * PK_Q30_ONE);
+    TH_EXPECT_EQ(pk_planner_junction_v2(u, u, 2, 1000000, 20), UINT64_MAX);
+    pk_q30_t r[PK_AXES] = { -u[0], -u[1] };
+    TH_EXPECT_EQ(pk_planner_junction_v2(u, r, 2, 1000000, 20), 0); /* reversal */
+}
+
+int th_main(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    static const struct th_case cases[] = {
+        TH_CASE(test_isqrt64_is_the_exact_floor_everywhere),
+        TH_CASE(test_micrometres_round_to_the_nearest_step_like_a_double_reference),
+        TH_CASE(test_replanned_speeds_respect_every_constraint_on_random_polylines),
+        TH_CASE(test_a_straight_continuation_is_not_slowed_by_the_junction),
+    };
+    return th_run(cases, TH_COUNT(cases));
+}
