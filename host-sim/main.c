@@ -14,6 +14,7 @@ struct pk_command {
 
 static const struct pk_command commands[] = {
     { "refine", cmd_refine, "smooth a polyline read from stdin (subdivision kernel)" },
+    { "serve", cmd_serve, "run the simulated machine in real time, speaking Grbl 1.1 on a pty" },
 };
 
 static void usage(FILE *f)

@@ -1,0 +1,42 @@
+/*
+ * pk_grbl_motion.h — adapter that lets the Grbl protocol engine (pk_grbl.h)
+ * drive a real plotkin machine (pk_motion.h).
+ *
+ * It turns the engine's machine ops into pk_machine_* calls and the Grbl
+ * settings ($100 steps/mm, $110 rates, ...) into a struct pk_motion_cfg:
+ *   steps/mm (1e-6 steps/mm) -> Q16.16, rates mm/min -> µm/min,
+ *   accelerations mm/s^2 -> µm/s^2, $0 / $206 µs -> HAL ticks (at least 1),
+ *   $11 mm -> µm, $12 mm -> tolerance µm, $200..$204 -> struct pk_smooth_cfg.
+ * Applying settings re-initialises the machine (only ever while idle): its
+ * step position then restarts at 0, as after power-up.
+ *
+ * Usage:
+ *     struct pk_grbl_motion gm = { &machine, &hal };
+ *     struct pk_grbl_machine_ops ops;
+ *     pk_grbl_motion_ops(&ops);
+ *     pk_grbl_init(&g, &io, &ops, &gm, NULL);
+ * Calling context: MAIN (as the engine).
+ */
+#ifndef PLOTKIN_PK_GRBL_MOTION_H
+#define PLOTKIN_PK_GRBL_MOTION_H
+
+#include "hal.h"
+#include "pk_grbl.h"
+#include "pk_motion.h"
+
+struct pk_grbl_motion {
+    struct pk_machine *m;        /**< storage for the machine (initialised by configure) */
+    const struct pk_hal *hal;    /**< its HAL; must outlive the machine */
+    struct pk_grbl_settings set; /**< last settings applied (private) */
+    int ready;                   /**< the machine has been initialised (private) */
+};
+
+/** Fill *ops with the adapter's machine ops (ctx = struct pk_grbl_motion).
+ *  The engine copies the table at init, so *ops may be a local. */
+void pk_grbl_motion_ops(struct pk_grbl_machine_ops *ops);
+
+/** Build the motion configuration the settings describe (for tests and tools). */
+void pk_grbl_motion_cfg(const struct pk_grbl_settings *s, uint32_t tick_hz,
+                        struct pk_motion_cfg *cfg);
+
+#endif

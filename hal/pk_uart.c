@@ -1,0 +1,142 @@
+/*
+ * pk_uart.c — SPSC receive/transmit rings of the UART shim (see pk_uart.h).
+ *
+ * Free-running 8-bit indices: used = (uint8_t)(head - tail), which is exact
+ * for ring sizes up to 128 because a ring never holds more than its size.
+ * The producer writes the slot, then publishes head with release order; the
+ * consumer loads head with acquire order before reading slots, and publishes
+ * tail with release order after it has copied them out.
+ */
+#include "pk_uart.h"
+
+#include <string.h>
+
+#define RX_MASK ((uint8_t)(PK_UART_RX_SIZE - 1))
+#define TX_MASK ((uint8_t)(PK_UART_TX_SIZE - 1))
+
+void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx)
+{
+    memset(u->rx, 0, sizeof u->rx);
+    memset(u->tx, 0, sizeof u->tx);
+    atomic_init(&u->rx_head, 0);
+    atomic_init(&u->rx_tail, 0);
+    atomic_init(&u->tx_head, 0);
+    atomic_init(&u->tx_tail, 0);
+    atomic_init(&u->rx_dropped, 0);
+    atomic_init(&u->rx_overflows, 0);
+    atomic_init(&u->rx_lost_at, 0);
+    u->rx_overflows_seen = 0;
+    u->filter = filter;
+    u->filter_ctx = ctx;
+}
+
+static uint8_t rx_used(const struct pk_uart *u)
+{
+    uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_acquire);
+    uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_acquire);
+    return (uint8_t)(h - t);
+}
+
+int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
+{
+    if (u->filter != NULL && u->filter(u->filter_ctx, byte))
+        return PK_UART_RX_REALTIME;
+    uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_relaxed);
+    uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_acquire);
+    if ((uint8_t)(h - t) >= PK_UART_RX_SIZE) {
+        atomic_fetch_add_explicit(&u->rx_dropped, 1u, memory_order_relaxed);
+        /* One event per run of lost bytes: a new event only once the main
+         * loop has seen the previous one. */
+        uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
+        if (ev == u->rx_overflows_seen) {
+            atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
+            atomic_store_explicit(&u->rx_overflows, ev + 1u, memory_order_release);
+        }
+        return PK_UART_RX_DROPPED;
+    }
+    u->rx[h & RX_MASK] = byte;
+    atomic_store_explicit(&u->rx_head, (uint8_t)(h + 1u), memory_order_release);
+    return PK_UART_RX_STORED;
+}
+
+size_t pk_uart_rx_space(const struct pk_uart *u) { return PK_UART_RX_SIZE - rx_used(u); }
+
+size_t pk_uart_rx_used(const struct pk_uart *u) { return rx_used(u); }
+
+int pk_uart_read(struct pk_uart *u, uint8_t *buf, size_t len)
+{
+    uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_acquire);
+    uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_relaxed);
+    uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_acquire);
+    if (ev != u->rx_overflows_seen) {
+        /* Deliver up to the point of loss, then report it there. */
+        uint8_t at = atomic_load_explicit(&u->rx_lost_at, memory_order_relaxed);
+        if (t == at) {
+            u->rx_overflows_seen = ev;
+            return PK_HAL_EIO;
+        }
+        h = at;
+    }
+    size_t n = 0;
+    while (n < len && t != h) {
+        buf[n++] = u->rx[t & RX_MASK];
+        t++;
+    }
+    atomic_store_explicit(&u->rx_tail, t, memory_order_release);
+    return (int)n;
+}
+
+int pk_uart_write(struct pk_uart *u, const uint8_t *buf, size_t len)
+{
+    uint8_t h = atomic_load_explicit(&u->tx_head, memory_order_relaxed);
+    uint8_t t = atomic_load_explicit(&u->tx_tail, memory_order_acquire);
+    size_t n = 0;
+    while (n < len && (uint8_t)(h - t) < PK_UART_TX_SIZE) {
+        u->tx[h & TX_MASK] = buf[n++];
+        h++;
+    }
+    atomic_store_explicit(&u->tx_head, h, memory_order_release);
+    return (int)n;
+}
+
+size_t pk_uart_tx_space(const struct pk_uart *u)
+{
+    uint8_t h = atomic_load_explicit(&u->tx_head, memory_order_relaxed);
+    uint8_t t = atomic_load_explicit(&u->tx_tail, memory_order_acquire);
+    return PK_UART_TX_SIZE - (uint8_t)(h - t);
+}
+
+size_t pk_uart_tx_pop(struct pk_uart *u, uint8_t *buf, size_t len)
+{
+    uint8_t t = atomic_load_explicit(&u->tx_tail, memory_order_relaxed);
+    uint8_t h = atomic_load_explicit(&u->tx_head, memory_order_acquire);
+    size_t n = 0;
+    while (n < len && t != h) {
+        buf[n++] = u->tx[t & TX_MASK];
+        t++;
+    }
+    atomic_store_explicit(&u->tx_tail, t, memory_order_release);
+    return n;
+}
+
+uint32_t pk_uart_rx_dropped(const struct pk_uart *u)
+{
+    return atomic_load_explicit(&u->rx_dropped, memory_order_relaxed);
+}
+
+int pk_uart_rx_overflow_pending(const struct pk_uart *u)
+{
+    return atomic_load_explicit(&u->rx_overflows, memory_order_acquire) != u->rx_overflows_seen;
+}
+
+int pk_uart_read_cb(void *ctx, uint8_t *buf, size_t len)
+{
+    return pk_uart_read((struct pk_uart *)ctx, buf, len);
+}
+
+int pk_uart_write_cb(void *ctx, const uint8_t *buf, size_t len)
+{
+    return pk_uart_write((struct pk_uart *)ctx, buf, len);
+}
+
+size_t pk_uart_rx_used_cb(void *ctx) { return pk_uart_rx_used((const struct pk_uart *)ctx); }

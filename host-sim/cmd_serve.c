@@ -1,0 +1,202 @@
+/*
+ * cmd_serve.c — `plotkin serve`: run the firmware (Grbl protocol engine +
+ * motion core) in the simulator in real time and expose it on a
+ * pseudo-terminal, so any G-code sender can connect as if to a board.
+ *
+ *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N]
+ *
+ * The simulated clock follows the wall clock times N (--speed). Each loop
+ * iteration moves bytes between the pty and the UART shim (the "RX/TX
+ * interrupts"), then runs main-loop iterations of the firmware every 0.5 ms
+ * of simulated time, with the step-timer callbacks at their exact simulated
+ * ticks in between (host-sim/grbl_sim.c), until the simulated clock has
+ * caught up with the wall clock; then it sleeps in poll() until input arrives
+ * or the next millisecond. If the host cannot keep up (very high --speed), the
+ * simulation runs as fast as it can and the lag is reported, never
+ * accumulated.
+ *
+ * The pty survives client disconnects (we hold our own slave fd open), so a
+ * sender can disconnect and reconnect. SIGINT/SIGTERM stop it cleanly and a
+ * summary is printed.
+ *
+ * The machine here is motion's recording HAL with logging off (constant
+ * memory for an endless session); the pin-level simulator (halsim) can
+ * replace it without changing the protocol side.
+ */
+#define _XOPEN_SOURCE 700
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include "commands.h"
+#include "grbl_sim.h"
+#include "posix/pk_serial.h"
+
+#define TICK_HZ 1000000u
+#define MAIN_PERIOD_TICKS 500u
+
+/* The one piece of process state a signal handler may touch. */
+static volatile sig_atomic_t serve_stop;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    serve_stop = 1;
+}
+
+static uint64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static void usage(FILE *f)
+{
+    fputs("usage: plotkin serve [--link PATH] [--speed N] [--device PATH [--baud N]]\n"
+          "\n"
+          "Run the simulated machine in real time and speak Grbl 1.1 on a pseudo-terminal.\n"
+          "  --link PATH    also make PATH a symlink to the pty (stable name for senders)\n"
+          "  --speed N      simulated clock runs N times faster than the wall clock (1..100000)\n"
+          "  --device PATH  serve on a real serial device instead of a pty (raw mode)\n"
+          "  --baud N       baud rate for --device (default 115200)\n"
+          "Stops on SIGINT/SIGTERM and prints a summary.\n",
+          f);
+}
+
+static const char *state_name(int st)
+{
+    switch (st) {
+    case PK_STATE_RUN: return "Run";
+    case PK_STATE_HOLDING: return "Hold:1";
+    case PK_STATE_HOLD: return "Hold:0";
+    case PK_STATE_ALARM: return "Alarm";
+    default: return "Idle";
+    }
+}
+
+int cmd_serve(int argc, char **argv)
+{
+    const char *link = NULL, *device = NULL;
+    long speed = 1, baud = 115200;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        } else if (!strcmp(argv[i], "--link") && i + 1 < argc) {
+            link = argv[++i];
+        } else if (!strcmp(argv[i], "--device") && i + 1 < argc) {
+            device = argv[++i];
+        } else if ((!strcmp(argv[i], "--speed") || !strcmp(argv[i], "--baud")) && i + 1 < argc) {
+            char *end;
+            long v = strtol(argv[i + 1], &end, 10);
+            if (*end != '\0' || v < 1 || (argv[i][2] == 's' && v > 100000)) {
+                fprintf(stderr, "plotkin serve: bad value for %s: '%s'\n", argv[i], argv[i + 1]);
+                return 2;
+            }
+            if (argv[i][2] == 's')
+                speed = v;
+            else
+                baud = v;
+            i++;
+        } else {
+            fprintf(stderr, "plotkin serve: unknown option '%s'\n", argv[i]);
+            usage(stderr);
+            return 2;
+        }
+    }
+
+    struct pk_grbl_sim *sim = calloc(1, sizeof *sim);
+    if (sim == NULL || pk_grbl_sim_init(sim, TICK_HZ, NULL) != 0) {
+        fprintf(stderr, "plotkin serve: cannot initialise the machine\n");
+        free(sim);
+        return 1;
+    }
+    struct pk_serial ser;
+    int rc = device ? pk_serial_open(&ser, device, (uint32_t)baud) : pk_serial_open_pty(&ser, link);
+    if (rc != 0) {
+        fprintf(stderr, "plotkin serve: %s: %s\n", device ? device : "pty", strerror(-rc));
+        pk_grbl_sim_free(sim);
+        free(sim);
+        return 1;
+    }
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    if (device)
+        printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser.path, baud);
+    else if (link)
+        printf("plotkin serve: Grbl 1.1 on %s (link %s), speed x%ld\n", ser.path, link, speed);
+    else
+        printf("plotkin serve: Grbl 1.1 on %s, speed x%ld\n", ser.path, speed);
+    fflush(stdout);
+
+    uint64_t t0 = now_ns(), wall_start = t0;
+    uint64_t sim_base = 0, lag_events = 0;
+    int io_error = 0;
+    while (!serve_stop) {
+        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+            io_error = 1;
+            break;
+        }
+        uint64_t target = sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
+        /* At most ~1 ms of wall-equivalent work between two pumps. */
+        uint64_t slice_end = sim->rec.now + (uint64_t)speed * (TICK_HZ / 1000u);
+        if (slice_end > target)
+            slice_end = target;
+        while (sim->rec.now < slice_end) {
+            int busy = pk_rec_armed(&sim->rec) || !pk_grbl_idle(&sim->g) ||
+                       pk_uart_rx_used(&sim->uart) > 0 || pk_machine_state(&sim->m) != PK_STATE_IDLE;
+            uint64_t step = busy ? MAIN_PERIOD_TICKS : slice_end - sim->rec.now;
+            if (step > slice_end - sim->rec.now)
+                step = slice_end - sim->rec.now;
+            pk_grbl_sim_step(sim, step);
+        }
+        pk_grbl_poll(&sim->g);
+        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+            io_error = 1;
+            break;
+        }
+        uint64_t now_target =
+            sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
+        if (now_target > sim->rec.now + (uint64_t)TICK_HZ / 2u * (uint64_t)speed) {
+            /* More than half a wall second behind: run as fast as we can
+             * from here instead of trying to catch up. */
+            lag_events++;
+            sim_base = sim->rec.now;
+            t0 = now_ns();
+            continue;
+        }
+        if (sim->rec.now >= now_target) {
+            struct pollfd p = { ser.fd, POLLIN, 0 };
+            poll(&p, 1, 1);
+        }
+    }
+    double wall = (double)(now_ns() - wall_start) / 1e9;
+    pk_um_t pos[PK_AXES];
+    pk_machine_position_um(&sim->m, pos);
+    const struct pk_grbl_stats *st = &sim->g.stats;
+    printf("plotkin serve: stopped%s\n", io_error ? " (I/O error on the serial line)" : "");
+    printf("  simulated time %.3f s, wall time %.3f s, speed x%ld%s\n",
+           (double)sim->rec.now / TICK_HZ, wall, speed, lag_events ? " (host could not keep up)" : "");
+    printf("  lines %u: %u ok, %u error; moves %u; soft resets %u\n", st->lines, st->ok,
+           st->errors, st->moves, st->resets);
+    printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow\n",
+           (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
+           (unsigned)pk_uart_rx_dropped(&sim->uart));
+    printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->m)),
+           pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
+    fflush(stdout);
+    pk_serial_close(&ser);
+    pk_grbl_sim_free(sim);
+    free(sim);
+    return io_error ? 1 : 0;
+}

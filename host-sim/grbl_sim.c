@@ -1,0 +1,29 @@
+/*
+ * grbl_sim.c — a simulated machine speaking Grbl (see grbl_sim.h).
+ */
+#include "grbl_sim.h"
+
+#include <string.h>
+
+int pk_grbl_sim_init(struct pk_grbl_sim *s, uint32_t tick_hz, const struct pk_grbl_settings *set)
+{
+    memset(s, 0, sizeof *s);
+    pk_rec_init(&s->rec, tick_hz);
+    s->rec.record = 0;
+    s->gm.m = &s->m;
+    s->gm.hal = &s->rec.hal;
+    pk_uart_init(&s->uart, pk_grbl_rt_filter, &s->g);
+    struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &s->uart };
+    struct pk_grbl_machine_ops ops;
+    pk_grbl_motion_ops(&ops);
+    return pk_grbl_init(&s->g, &io, &ops, &s->gm, set);
+}
+
+void pk_grbl_sim_step(struct pk_grbl_sim *s, uint64_t ticks)
+{
+    pk_grbl_poll(&s->g);
+    pk_machine_poll(&s->m);
+    pk_rec_advance(&s->rec, s->rec.now + ticks);
+}
+
+void pk_grbl_sim_free(struct pk_grbl_sim *s) { pk_rec_free(&s->rec); }

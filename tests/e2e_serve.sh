@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# End to end: `plotkin serve` on a real pseudo-terminal, driven by a Grbl
+# sender written with Debian's python3-serial (tests/serve_client.py), then
+# stopped with SIGTERM, which must print the summary. Every wait is bounded.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${PLOTKIN_BUILD:-build}
+pass=0; fail=0
+ok()  { pass=$((pass+1)); echo "ok $1"; }
+bad() { fail=$((fail+1)); echo "not ok $1"; shift; printf '  %s\n' "$@"; }
+
+PY=/usr/bin/python3
+if ! $PY -c 'import serial' 2>/dev/null; then
+  bad "python3-serial is installed (.ci/deps.sh base)"; echo "$pass passed, $fail failed"; exit 1
+fi
+tmp=$(mktemp -d)
+srv=""
+cleanup() { [[ -n $srv ]] && kill "$srv" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }
+trap cleanup EXIT
+
+"$BUILD/plotkin" serve --link "$tmp/tty" --speed 100 >"$tmp/out" 2>"$tmp/err" &
+srv=$!
+for _ in $(seq 200); do [[ -e $tmp/tty ]] && break; sleep 0.05; done
+if [[ -e $tmp/tty ]] && grep -q "^plotkin serve: Grbl 1.1 on /dev/pts/" "$tmp/out"; then
+  ok "serve prints its pty and makes the --link symlink"
+else
+  bad "serve prints its pty and makes the --link symlink" "$(cat "$tmp/out" "$tmp/err")"
+fi
+
+client=$(timeout 300 $PY tests/serve_client.py "$tmp/tty" 2>&1)
+echo "$client" | grep -vE '^[0-9]+ passed, [0-9]+ failed$'
+last=$(echo "$client" | tail -n 1)
+if [[ $last =~ ^([0-9]+)\ passed,\ ([0-9]+)\ failed$ ]]; then
+  pass=$((pass+BASH_REMATCH[1])); fail=$((fail+BASH_REMATCH[2]))
+else
+  bad "the protocol client ran to the end" "$client"
+fi
+
+# socat is a plain byte pipe: it must get the same answers.
+if command -v socat >/dev/null; then
+  got=$(printf 'G0 X2 Y3\n$G\n' | timeout 10 socat -t 1 - "FILE:$tmp/tty,raw,echo=0" 2>&1)
+  if echo "$got" | grep -q '^ok' && echo "$got" | grep -q '^\[GC:G0 '; then
+    ok "socat talks to serve"
+  else
+    bad "socat talks to serve" "$got"
+  fi
+fi
+
+kill -TERM "$srv"
+for _ in $(seq 100); do kill -0 "$srv" 2>/dev/null || break; sleep 0.05; done
+if kill -0 "$srv" 2>/dev/null; then
+  bad "SIGTERM stops serve within 5 s"
+else
+  wait "$srv"; rc=$?; srv=""
+  if [[ $rc -eq 0 ]] && grep -q "plotkin serve: stopped" "$tmp/out" && grep -q "lines [0-9]*: [0-9]* ok" "$tmp/out"; then
+    ok "SIGTERM stops serve cleanly with a summary"
+  else
+    bad "SIGTERM stops serve cleanly with a summary" "exit $rc" "$(cat "$tmp/out")"
+  fi
+  [[ ! -e $tmp/tty ]] && ok "the --link symlink is removed on exit" || bad "the --link symlink is removed on exit"
+fi
+echo "$pass passed, $fail failed"
+[[ $fail -eq 0 ]]

@@ -1,0 +1,601 @@
+/*
+ * test_grbl.c — the Grbl 1.1 protocol engine (firmware/pk_grbl.c) over the
+ * real UART shim (hal/pk_uart.c, realtime filter in the receive path) and a
+ * fake machine that records every request and executes one per step, so the
+ * tests control exactly when the machine has room.
+ *
+ * Expected values come from the G-code text and Grbl's published protocol
+ * (error numbers, message formats), never from the engine's output.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "th.h"
+#include "pk_grbl.h"
+#include "pk_uart.h"
+
+int th_main(int argc, char **argv);
+
+/* ---- fake machine ------------------------------------------------------------ */
+
+enum { REQ_MOVE = 1, REQ_RAPID, REQ_PEN, REQ_DWELL, REQ_SMOOTH, REQ_END };
+
+struct req {
+    int type;
+    pk_um_t p[3];
+    int32_t arg;
+};
+
+#define LOG_MAX 20000
+struct fake {
+    int room;                 /* requests it can hold */
+    struct req q[64];
+    int qn;
+    struct req log[LOG_MAX];  /* everything ever accepted, in order */
+    int logn;
+    pk_um_t pos[3];           /* position after the last executed move */
+    int held;
+    int resets;
+    int configured;
+    struct pk_grbl_settings set;
+};
+
+static int f_push(struct fake *f, struct req r)
+{
+    if (f->qn >= f->room)
+        return PK_GRBL_M_FULL;
+    f->q[f->qn++] = r;
+    if (f->logn < LOG_MAX)
+        f->log[f->logn++] = r;
+    return PK_GRBL_M_OK;
+}
+static int f_move(void *m, const pk_um_t t[3], pk_gc_umpm_t feed, int rapid)
+{
+    struct req r = { rapid ? REQ_RAPID : REQ_MOVE, { t[0], t[1], t[2] }, feed };
+    return f_push(m, r);
+}
+static int f_pen(void *m, int down) { return f_push(m, (struct req){ REQ_PEN, { 0 }, down }); }
+static int f_dwell(void *m, uint32_t ms) { return f_push(m, (struct req){ REQ_DWELL, { 0 }, (int32_t)ms }); }
+static int f_smooth(void *m, int exact, pk_um_t tol)
+{
+    return f_push(m, (struct req){ REQ_SMOOTH, { exact, 0, 0 }, tol });
+}
+static int f_end(void *m) { return f_push(m, (struct req){ REQ_END, { 0 }, 0 }); }
+static void f_hold(void *m) { struct fake *f = m; if (f->qn) f->held = 1; }
+static void f_resume(void *m) { ((struct fake *)m)->held = 0; }
+static int f_reset(void *m)
+{
+    struct fake *f = m;
+    int cut = f->qn > 0;
+    f->qn = 0;
+    f->held = 0;
+    f->resets++;
+    return cut;
+}
+static void f_pos(void *m, pk_um_t out[3]) { memcpy(out, ((struct fake *)m)->pos, sizeof ((struct fake *)m)->pos); }
+static int f_state(void *m)
+{
+    struct fake *f = m;
+    return f->held ? PK_GRBL_M_HOLD : f->qn ? PK_GRBL_M_RUN : PK_GRBL_M_IDLE;
+}
+static uint32_t f_free(void *m) { struct fake *f = m; return (uint32_t)(f->room - f->qn); }
+static uint32_t f_total(void *m) { return (uint32_t)((struct fake *)m)->room; }
+static pk_gc_umpm_t f_speed(void *m) { struct fake *f = m; return f->qn && !f->held ? f->q[0].arg : 0; }
+static int f_conf(void *m, const struct pk_grbl_settings *s)
+{
+    struct fake *f = m;
+    f->set = *s;
+    f->configured++;
+    return 0;
+}
+static const struct pk_grbl_machine_ops fake_ops = {
+    f_move, f_pen, f_dwell, f_smooth, f_end, f_hold, f_resume, f_reset,
+    f_pos, f_state, f_free, f_total, f_speed, f_conf,
+};
+
+/* Execute one queued request (unless held). */
+static void f_step(struct fake *f)
+{
+    if (f->held || f->qn == 0)
+        return;
+    struct req r = f->q[0];
+    if (r.type == REQ_MOVE || r.type == REQ_RAPID)
+        memcpy(f->pos, r.p, sizeof f->pos);
+    memmove(f->q, f->q + 1, sizeof f->q[0] * (size_t)(f->qn - 1));
+    f->qn--;
+}
+
+/* ---- rig: engine + UART + fake -------------------------------------------------- */
+
+struct rig {
+    struct pk_uart u;
+    struct pk_grbl g;
+    struct fake f;
+    char out[65536];
+    size_t outn;
+};
+
+static struct rig R;
+
+static void rig_init(int room)
+{
+    memset(&R, 0, sizeof R);
+    R.f.room = room;
+    pk_uart_init(&R.u, pk_grbl_rt_filter, &R.g);
+    struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &R.u };
+    TH_EXPECT_EQ(pk_grbl_init(&R.g, &io, &fake_ops, &R.f, NULL), 0);
+}
+
+static void drain_tx(void)
+{
+    uint8_t b[128];
+    size_t n;
+    while ((n = pk_uart_tx_pop(&R.u, b, sizeof b)) > 0) {
+        if (R.outn + n < sizeof R.out) {
+            memcpy(R.out + R.outn, b, n);
+            R.outn += n;
+            R.out[R.outn] = 0;
+        }
+    }
+}
+
+static void poll_n(int n, int step)
+{
+    for (int i = 0; i < n; i++) {
+        pk_grbl_poll(&R.g);
+        drain_tx();
+        if (step)
+            f_step(&R.f);
+    }
+}
+
+/* Push bytes as the RX interrupt would (realtime filter first). Returns the
+ * number stored or claimed (stops when the ring is full). */
+static size_t rx(const char *s, size_t n)
+{
+    size_t i = 0;
+    for (; i < n; i++) {
+        int rt = s[i] == '?' || s[i] == '!' || s[i] == '~' || s[i] == 0x18;
+        if (pk_uart_rx_space(&R.u) == 0 && !rt)
+            break;
+        pk_uart_rx_push(&R.u, (uint8_t)s[i]);
+    }
+    return i;
+}
+static void rxs(const char *s) { TH_EXPECT_EQ(rx(s, strlen(s)), strlen(s)); }
+
+static int count(const char *hay, const char *needle)
+{
+    int c = 0;
+    for (const char *p = hay; (p = strstr(p, needle)) != NULL; p += strlen(needle))
+        c++;
+    return c;
+}
+
+/* Answers (ok / error:N) in order, from the captured output. */
+static int answers(int *codes, int max)
+{
+    int n = 0;
+    const char *p = R.out;
+    while (*p && n < max) {
+        const char *e = strstr(p, "\r\n");
+        if (!e)
+            break;
+        if (e - p == 2 && !strncmp(p, "ok", 2))
+            codes[n++] = 0;
+        else if (!strncmp(p, "error:", 6))
+            codes[n++] = atoi(p + 6);
+        p = e + 2;
+    }
+    return n;
+}
+
+/* ---- tests ----------------------------------------------------------------------- */
+
+static void test_the_greeting_names_grbl_1_1_and_plotkin(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    TH_EXPECT(strncmp(R.out, "\r\nGrbl 1.1h [plotkin", 20) == 0);
+    TH_EXPECT(count(R.out, "'$' for help]\r\n") == 1);
+    TH_EXPECT_EQ(R.f.configured, 1);
+}
+
+static void test_character_counted_stream_is_acked_once_per_line_in_order(void)
+{
+    rig_init(4);
+    poll_n(2, 0);
+    R.outn = 0;
+    enum { N = 500 };
+    static char lines[N][40];
+    for (int i = 0; i < N; i++)
+        snprintf(lines[i], sizeof lines[i], "G1 X%d.%03d Y%d F3000\n", i % 250, (i * 7) % 1000,
+                 (i * 3) % 200);
+    int sent = 0, acked = 0, released = 0;
+    size_t inflight[N];
+    size_t budget_used = 0;
+    for (int spins = 0; spins < 200000 && acked < N; spins++) {
+        /* Character counting: never more than 128 unacknowledged bytes. */
+        while (sent < N && budget_used + strlen(lines[sent]) <= 128) {
+            rxs(lines[sent]);
+            inflight[sent] = strlen(lines[sent]);
+            budget_used += inflight[sent];
+            sent++;
+        }
+        size_t before = R.outn;
+        poll_n(1, 1);
+        acked += count(R.out + before, "ok\r\n");
+        TH_ASSERT(count(R.out + before, "error") == 0);
+        while (released < acked) /* an ok frees its line's bytes */
+            budget_used -= inflight[released++];
+    }
+    TH_ASSERT_EQ(acked, N);
+    TH_EXPECT_EQ(pk_uart_rx_dropped(&R.u), 0);
+    poll_n(100, 1);
+    /* Every move reached the machine once, in order, at the right target. */
+    int k = 0;
+    for (int i = 0; i < R.f.logn; i++) {
+        if (R.f.log[i].type != REQ_MOVE)
+            continue;
+        int32_t x = (k % 250) * 1000 + (k * 7) % 1000;
+        TH_EXPECT_EQ(R.f.log[i].p[0], x);
+        TH_EXPECT_EQ(R.f.log[i].p[1], ((k * 3) % 200) * 1000);
+        TH_EXPECT_EQ(R.f.log[i].arg, 3000000);
+        k++;
+    }
+    TH_EXPECT_EQ(k, N);
+    TH_EXPECT_EQ(R.g.stats.ok, N);
+}
+
+static void test_a_full_machine_stops_reading_so_nothing_is_lost(void)
+{
+    rig_init(2);
+    poll_n(2, 0);
+    R.outn = 0;
+    const char *prog = "G0 X1\nG0 X2\nG0 X3\nG0 X4\nG0 X5\nG0 X6\n";
+    rxs(prog);
+    poll_n(20, 0); /* the machine never executes */
+    /* Two moves fit, the third line waits unacknowledged, the rest stay in
+     * the receive ring untouched. */
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 2);
+    TH_EXPECT_EQ(R.f.logn, 2);
+    TH_EXPECT_EQ(pk_uart_rx_used(&R.u), strlen("G0 X4\nG0 X5\nG0 X6\n"));
+    poll_n(40, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 6);
+    TH_ASSERT_EQ(R.f.logn, 6);
+    for (int i = 0; i < 6; i++)
+        TH_EXPECT_EQ(R.f.log[i].p[0], (i + 1) * 1000);
+}
+
+static void test_status_mid_line_reports_and_leaves_the_line_intact(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("G1 X1?0 Y?2 F6?00\n");
+    poll_n(3, 0);
+    TH_EXPECT_EQ(count(R.out, "<"), 1); /* three '?' before a poll: one report is enough */
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 1);
+    TH_ASSERT_EQ(R.f.logn, 1);
+    TH_EXPECT_EQ(R.f.log[0].p[0], 10000);
+    TH_EXPECT_EQ(R.f.log[0].p[1], 2000);
+    TH_EXPECT_EQ(R.f.log[0].arg, 600000);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strcmp(R.out, "<Run|MPos:0.000,0.000,0.000|Bf:7,128|FS:600,0>\r\n") == 0);
+    poll_n(2, 1);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strcmp(R.out, "<Idle|MPos:10.000,2.000,0.000|Bf:8,128|FS:0,0>\r\n") == 0);
+}
+
+static void test_hold_and_resume_act_at_once_even_mid_line(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G1 X5 F100\nG1 X6\n");
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("G1 X!7");     /* '!' inside a line that is still being typed */
+    poll_n(1, 0);
+    TH_EXPECT(R.f.held);
+    rxs("?");
+    poll_n(2, 1);
+    TH_EXPECT(strstr(R.out, "<Hold:0|") != NULL);
+    TH_EXPECT(R.f.pos[0] == 0); /* nothing executed while held */
+    rxs("~\n");
+    poll_n(10, 1);
+    TH_EXPECT(!R.f.held);
+    TH_EXPECT_EQ(R.f.pos[0], 7000);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 1);
+}
+
+static void test_soft_reset_in_motion_clears_the_queue_and_locks_until_unlock(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G1 X5 F100\nG1 X6\nG1 X7\n");
+    poll_n(2, 0);
+    TH_ASSERT(R.f.qn == 3);
+    R.outn = 0;
+    rxs("G1 X8\x18");
+    poll_n(2, 0);
+    TH_EXPECT_EQ(R.f.qn, 0);
+    TH_EXPECT_EQ(R.f.resets, 1);
+    TH_EXPECT(strstr(R.out, "ALARM:3\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "Grbl 1.1h [plotkin") != NULL);
+    TH_EXPECT(strstr(R.out, "[MSG:'$H'|'$X' to unlock]") != NULL);
+    rxs("?");
+    R.outn = 0;
+    poll_n(1, 0);
+    TH_EXPECT(strncmp(R.out, "<Alarm|", 7) == 0);
+    R.outn = 0;
+    rxs("G0 X1\n(comment only)\n$X\nG0 X1\n");
+    poll_n(5, 0);
+    int c[8];
+    TH_ASSERT_EQ(answers(c, 8), 4);
+    TH_EXPECT_EQ(c[0], 9);
+    TH_EXPECT_EQ(c[1], 0);
+    TH_EXPECT_EQ(c[2], 0);
+    TH_EXPECT_EQ(c[3], 0);
+    TH_EXPECT(strstr(R.out, "[MSG:Caution: Unlocked]") != NULL);
+    TH_EXPECT_EQ(R.f.qn, 1); /* only the move after the unlock */
+}
+
+static void test_soft_reset_when_idle_does_not_alarm(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("\x18");
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "ALARM") == NULL);
+    TH_EXPECT(strstr(R.out, "Grbl 1.1h") != NULL);
+    rxs("G0 X1\n");
+    poll_n(2, 0);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 1);
+}
+
+/* Bad lines on the wire, each followed by a valid move that must execute. */
+static const struct { const char *line; int err; } wire_bad[] = {
+    { "G1 X1 X2\n", 25 },
+    { "G1 A5\n", 20 },
+    { "G1 X\n", 2 },
+    { "G1 X12345678901\n", 2 },
+    { "G0 X301\n", 15 },
+    { "G0 Y-1\n", 15 },
+    { "G1 X1 F-5\n", 4 },
+    { "G0 G1 X1\n", 21 },
+    { "G1.5 X1\n", 23 },
+    { "G4\n", 28 },
+    { "N99999999 G0 X1\n", 27 },
+    { "\x01\x02\x03garbage\n", 1 },
+    { "G1 X1 \xfe\xff\n", 1 },
+    { "$Q\n", 3 },
+    { "$100=abc\n", 2 },
+    { "$100=-1\n", 4 },
+    { "$999=1\n", 3 },
+    { "$H\n", 5 },
+};
+
+static void test_every_bad_line_gets_its_error_and_later_lines_still_run(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    int expect[64], ne = 0;
+    for (unsigned i = 0; i < TH_COUNT(wire_bad); i++) {
+        char good[32];
+        snprintf(good, sizeof good, "G0 X%u\n", i + 1);
+        rxs(wire_bad[i].line);
+        expect[ne++] = wire_bad[i].err;
+        rxs(good);
+        expect[ne++] = 0;
+        poll_n(4, 1);
+    }
+    int got[64];
+    int n = answers(got, 64);
+    TH_ASSERT_EQ(n, ne);
+    for (int i = 0; i < n; i++) {
+        if (got[i] != expect[i]) {
+            th_print("  bad line: ");
+            th_print(wire_bad[i / 2].line);
+        }
+        TH_EXPECT_EQ(got[i], expect[i]);
+    }
+    /* Exactly the good moves reached the machine. */
+    TH_ASSERT_EQ(R.f.logn, (int)TH_COUNT(wire_bad));
+    for (int i = 0; i < R.f.logn; i++)
+        TH_EXPECT_EQ(R.f.log[i].p[0], (i + 1) * 1000);
+}
+
+static void test_line_ends_long_lines_and_overflow_follow_grbl(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    /* CR, LF and CR LF each end one line; a lone CR or LF is an empty line. */
+    rxs("G0 X1\rG0 X2\nG0 X3\r\n\n\r");
+    poll_n(6, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 5);
+    TH_EXPECT_EQ(R.f.logn, 3);
+    /* A 300-byte line: error:11, nothing of it runs; the next line does. */
+    R.outn = 0;
+    char longl[302];
+    memset(longl, ' ', sizeof longl);
+    memcpy(longl, "G0 X9", 5);
+    longl[300] = '\n';
+    longl[301] = 0;
+    size_t off = 0;
+    while (off < 301) {
+        off += rx(longl + off, 301 - off);
+        poll_n(1, 1);
+    }
+    rxs("G0 X4\n");
+    poll_n(4, 1);
+    int c[4];
+    TH_ASSERT_EQ(answers(c, 4), 2);
+    TH_EXPECT_EQ(c[0], 11);
+    TH_EXPECT_EQ(c[1], 0);
+    TH_EXPECT_EQ(R.f.logn, 4);
+    TH_EXPECT_EQ(R.f.log[3].p[0], 4000);
+    /* Bytes lost to a full ring fail the line they belonged to. */
+    R.outn = 0;
+    char flood[200];
+    memset(flood, 'X', sizeof flood);
+    for (size_t i = 0; i < sizeof flood; i++)
+        pk_uart_rx_push(&R.u, (uint8_t)flood[i]); /* 72 bytes dropped */
+    poll_n(2, 1);
+    rxs("\nG0 X5\n");
+    poll_n(6, 1);
+    TH_EXPECT(pk_uart_rx_dropped(&R.u) > 0);
+    TH_ASSERT_EQ(answers(c, 4), 2);
+    TH_EXPECT_EQ(c[0], 11);
+    TH_EXPECT_EQ(c[1], 0);
+    TH_EXPECT(strstr(R.out, "[MSG:RX overflow") != NULL);
+    TH_EXPECT_EQ(R.f.log[R.f.logn - 1].p[0], 5000);
+}
+
+static void test_settings_list_set_and_reach_the_machine(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("$$\n");
+    poll_n(4, 0);
+    TH_EXPECT(strstr(R.out, "$0=10\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "$11=0.010\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "$100=80.000\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "$130=300.000\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "$204=60\r\n") != NULL);
+    TH_EXPECT_EQ(count(R.out, "$"), PK_GRBL_S_COUNT);
+    TH_EXPECT(strstr(R.out, "ok\r\n") == R.out + R.outn - 4);
+    R.outn = 0;
+    rxs("$100 = 157.5\n$130=100\nG0 X150\nG0 X100\n$202=1.5\n$I\n");
+    poll_n(8, 1);
+    int c[8];
+    TH_ASSERT_EQ(answers(c, 8), 6);
+    TH_EXPECT_EQ(c[0], 0);
+    TH_EXPECT_EQ(c[1], 0);
+    TH_EXPECT_EQ(c[2], 15); /* the new travel applies at once */
+    TH_EXPECT_EQ(c[3], 0);
+    TH_EXPECT_EQ(c[4], 3);  /* an integer setting */
+    TH_EXPECT_EQ(c[5], 0);
+    TH_EXPECT_EQ(R.f.set.v[PK_GRBL_S_STEPS_X], 157500000);
+    TH_EXPECT(strstr(R.out, "[OPT:,8,128]") != NULL);
+    /* Not while moving: error 8. */
+    rxs("G1 X10 F10\n$100=80\n");
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "error:8\r\n") != NULL);
+}
+
+static void test_check_mode_parses_without_moving(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("$C\nG0 X10\nG0 X999\n");
+    poll_n(4, 1);
+    rxs("?");
+    poll_n(1, 1);
+    int c[4];
+    TH_ASSERT_EQ(answers(c, 4), 3);
+    TH_EXPECT(c[0] == 0 && c[1] == 0 && c[2] == 15);
+    TH_EXPECT_EQ(R.f.logn, 0);
+    TH_EXPECT(strstr(R.out, "<Check|") != NULL);
+    rxs("$C\n");
+    poll_n(3, 1);
+    TH_EXPECT(strstr(R.out, "[MSG:Disabled]") != NULL);
+    TH_EXPECT_EQ(count(R.out, "Grbl 1.1h"), 1); /* restarts like Grbl */
+}
+
+static void test_pen_dwell_smoothing_and_end_reach_the_machine_in_order(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("M3\nM3\nG4 P0.5\nG61\nG64 P0.2\nG64\nG1 X1 F100\nM2\n");
+    poll_n(20, 1);
+    static const int want[] = { REQ_PEN, REQ_DWELL, REQ_SMOOTH, REQ_SMOOTH, REQ_SMOOTH,
+                                REQ_MOVE, REQ_PEN, REQ_END };
+    TH_ASSERT_EQ(R.f.logn, (int)TH_COUNT(want));
+    for (unsigned i = 0; i < TH_COUNT(want); i++)
+        TH_EXPECT_EQ(R.f.log[i].type, want[i]);
+    TH_EXPECT_EQ(R.f.log[0].arg, 1);          /* M3 = pen down (the second M3 adds nothing) */
+    TH_EXPECT_EQ(R.f.log[1].arg, 500);        /* ms */
+    TH_EXPECT_EQ(R.f.log[2].p[0], 1);         /* G61 exact */
+    TH_EXPECT_EQ(R.f.log[3].arg, 200);        /* G64 P0.2 = 200 µm */
+    TH_EXPECT_EQ(R.f.log[4].arg, 20);         /* G64 alone: $12 = 0.020 mm */
+    TH_EXPECT_EQ(R.f.log[6].arg, 0);          /* M2 lifts the pen */
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 8);
+}
+
+static void test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly(void)
+{
+    rig_init(2);
+    poll_n(2, 0);
+    rxs("G0 X10 Y10\nG5 X60 Y10 I0 J40 P0 Q40 F2000\nG5.1 X100 Y50 I40 J0\n");
+    poll_n(400, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 3);
+    TH_ASSERT(R.f.logn > 10);
+    TH_EXPECT_EQ(R.f.pos[0], 100000);
+    TH_EXPECT_EQ(R.f.pos[1], 50000);
+    /* The cubic's vertices stay inside its control polygon's box. */
+    int cubic_end = -1;
+    for (int i = 1; i < R.f.logn; i++) {
+        TH_EXPECT(R.f.log[i].type == REQ_MOVE);
+        TH_EXPECT(R.f.log[i].p[1] >= 10000 && R.f.log[i].p[1] <= 50000);
+        if (R.f.log[i].p[0] == 60000 && R.f.log[i].p[1] == 10000)
+            cubic_end = i;
+    }
+    TH_EXPECT(cubic_end > 2);
+}
+
+static void test_offsets_show_in_status_and_g_state(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G0 X10 Y20\n");
+    poll_n(3, 1);
+    rxs("G92 X0 Y0\nG20 G91 G1 F10\n$G\n$#\n");
+    poll_n(4, 1);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strstr(R.out, "|WCO:10.000,20.000,0.000>") != NULL);
+    TH_EXPECT(strstr(R.out, "MPos:10.000,20.000,0.000") != NULL);
+    rxs("$G\n");
+    R.outn = 0;
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "[GC:G1 G54 G17 G20 G91 G94 G64 M5 M9 T0 F10 S0]") != NULL);
+    if (!strstr(R.out, "[GC:G1 G54")) {
+        char dbg[128];
+        snprintf(dbg, sizeof dbg, "outn=%zu out_len=%u report=%u todo=%u rx=%zu\n", R.outn, R.g.out_len, R.g.report, R.g.cmd_todo, pk_uart_rx_used(&R.u));
+        th_print(dbg);
+        th_print(R.out);
+    }
+}
+
+int th_main(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    static const struct th_case cases[] = {
+        TH_CASE(test_the_greeting_names_grbl_1_1_and_plotkin),
+        TH_CASE(test_character_counted_stream_is_acked_once_per_line_in_order),
+        TH_CASE(test_a_full_machine_stops_reading_so_nothing_is_lost),
+        TH_CASE(test_status_mid_line_reports_and_leaves_the_line_intact),
+        TH_CASE(test_hold_and_resume_act_at_once_even_mid_line),
+        TH_CASE(test_soft_reset_in_motion_clears_the_queue_and_locks_until_unlock),
+        TH_CASE(test_soft_reset_when_idle_does_not_alarm),
+        TH_CASE(test_every_bad_line_gets_its_error_and_later_lines_still_run),
+        TH_CASE(test_line_ends_long_lines_and_overflow_follow_grbl),
+        TH_CASE(test_settings_list_set_and_reach_the_machine),
+        TH_CASE(test_check_mode_parses_without_moving),
+        TH_CASE(test_pen_dwell_smoothing_and_end_reach_the_machine_in_order),
+        TH_CASE(test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly),
+        TH_CASE(test_offsets_show_in_status_and_g_state),
+    };
+    return th_run(cases, TH_COUNT(cases));
+}

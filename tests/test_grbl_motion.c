@@ -1,0 +1,207 @@
+/*
+ * test_grbl_motion.c — the Grbl engine driving the REAL motion core on the
+ * recording HAL with a simulated clock (host-sim/grbl_sim.c): what a sender
+ * sees end to end, without a pseudo-terminal in between (tests/e2e_serve.sh
+ * repeats the key cases over a real pty).
+ *
+ * $100..$102 are set to 1000 steps/mm so one step is one micrometre and the
+ * expected final positions are exactly the programmed ones.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "th.h"
+#include "grbl_sim.h"
+
+int th_main(int argc, char **argv);
+
+static struct pk_grbl_sim S;
+static char out[1 << 20];
+static size_t outn;
+
+#define STEP_TICKS 500u /* main loop every 0.5 ms of simulated time */
+
+static void drain(void)
+{
+    uint8_t b[128];
+    size_t n;
+    while ((n = pk_uart_tx_pop(&S.uart, b, sizeof b)) > 0) {
+        if (outn + n + 1 < sizeof out) {
+            memcpy(out + outn, b, n);
+            outn += n;
+            out[outn] = 0;
+        }
+    }
+}
+
+static void step(int n)
+{
+    for (int i = 0; i < n; i++) {
+        pk_grbl_sim_step(&S, STEP_TICKS);
+        drain();
+    }
+}
+
+static int count(const char *hay, const char *needle)
+{
+    int c = 0;
+    for (const char *p = hay; (p = strstr(p, needle)) != NULL; p += strlen(needle))
+        c++;
+    return c;
+}
+
+static void send(const char *s)
+{
+    for (; *s; s++) {
+        for (int spins = 0; pk_uart_rx_space(&S.uart) == 0 && spins < 100000; spins++)
+            step(1);
+        pk_uart_rx_push(&S.uart, (uint8_t)*s);
+    }
+}
+
+static int machine_idle(void)
+{
+    return pk_machine_state(&S.m) == PK_STATE_IDLE && pk_grbl_idle(&S.g) &&
+           pk_uart_rx_used(&S.uart) == 0;
+}
+
+/* Run until idle (bounded by max simulated seconds). */
+static int run_idle(int max_s)
+{
+    for (long i = 0; i < (long)max_s * 2000; i++) {
+        step(1);
+        if (machine_idle())
+            return 1;
+    }
+    return 0;
+}
+
+static void start(void)
+{
+    struct pk_grbl_settings set;
+    pk_grbl_settings_default(&set);
+    set.v[PK_GRBL_S_STEPS_X] = set.v[PK_GRBL_S_STEPS_Y] = set.v[PK_GRBL_S_STEPS_Z] =
+        (pk_gc_u6_t)1000 * 1000000;
+    set.v[PK_GRBL_S_PEN_SETTLE_MS] = 0;
+    set.v[PK_GRBL_S_STEP_PULSE_US] = (pk_gc_u6_t)2 * 1000000; /* 100 k steps/s needs short pulses */
+    pk_grbl_sim_free(&S);
+    TH_ASSERT_EQ(pk_grbl_sim_init(&S, 1000000, &set), 0);
+    outn = 0;
+    out[0] = 0;
+    step(2);
+}
+
+static void final_status(char *buf, size_t n)
+{
+    outn = 0;
+    send("?");
+    step(2);
+    size_t m = outn < n - 1 ? outn : n - 1;
+    memcpy(buf, out, m);
+    buf[m] = 0;
+}
+
+static void test_a_streamed_program_ends_exactly_where_it_was_sent(void)
+{
+    start();
+    static char prog[1 << 16];
+    size_t k = 0;
+    int lines = 0;
+    k += (size_t)snprintf(prog + k, sizeof prog - k, "G21 G90 G64 P0.05\nM3\n");
+    lines += 2;
+    for (int i = 0; i < 120; i++) {
+        k += (size_t)snprintf(prog + k, sizeof prog - k, "G1 X%d.%03d Y%d.%03d F%d\n",
+                              10 + (i * 37) % 80, (i * 123) % 1000, 10 + (i * 53) % 70,
+                              (i * 311) % 1000, 3000 + (i % 3) * 1000);
+        lines++;
+    }
+    k += (size_t)snprintf(prog + k, sizeof prog - k,
+                          "G5 X50 Y50 I10 J0 P0 Q-10\nG5.1 X20 Y40 I-5 J5\nM5\nG0 X12.345 Y6.789\n");
+    lines += 4;
+    send(prog);
+    TH_ASSERT(run_idle(600));
+    TH_EXPECT_EQ(count(out, "ok\r\n"), lines);
+    TH_EXPECT_EQ(count(out, "error"), 0);
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:12.345,6.789,0.000|", 30) == 0);
+    if (strncmp(st, "<Idle|MPos:12.345,6.789,0.000|", 30) != 0)
+        th_print(st);
+}
+
+/* A long smoothed zigzag; hold in the middle of it, then resume. */
+static void test_hold_then_resume_mid_stroke_finishes_at_the_exact_end(void)
+{
+    start();
+    send("G64 P0.02\nG1 X1 Y1 F6000\n");
+    char buf[64];
+    for (int i = 0; i < 40; i++) {
+        snprintf(buf, sizeof buf, "X%d Y%d\n", 5 + i * 5, (i & 1) ? 30 : 1);
+        send(buf);
+    }
+    send("X250.5 Y100.25\n");
+    step(600); /* 0.3 s in: well inside the stroke */
+    TH_ASSERT(pk_machine_state(&S.m) == PK_STATE_RUN);
+    send("!");
+    int held = 0;
+    for (int i = 0; i < 4000 && !held; i++) {
+        step(1);
+        held = pk_machine_state(&S.m) == PK_STATE_HOLD;
+    }
+    TH_ASSERT(held);
+    pk_um_t p1[PK_AXES], p2[PK_AXES];
+    pk_machine_position_um(&S.m, p1);
+    step(400); /* stays put while held */
+    pk_machine_position_um(&S.m, p2);
+    TH_EXPECT(memcmp(p1, p2, sizeof p1) == 0);
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Hold:0|", 8) == 0);
+    send("~");
+    TH_ASSERT(run_idle(120));
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:250.500,100.250,0.000|", 33) == 0);
+    if (strncmp(st, "<Idle|MPos:250.500,100.250,0.000|", 33) != 0)
+        th_print(st);
+}
+
+static void test_soft_reset_during_motion_leaves_no_queued_move(void)
+{
+    start();
+    send("G1 X100 F3000\nG1 Y100\nG1 X0\nG1 Y0\n");
+    step(400);
+    TH_ASSERT(pk_machine_state(&S.m) == PK_STATE_RUN);
+    outn = 0;
+    send("\x18");
+    step(2);
+    TH_EXPECT_EQ(pk_machine_queue_fill(&S.m), 0);
+    TH_EXPECT(strstr(out, "ALARM:3") != NULL);
+    pk_um_t p1[PK_AXES], p2[PK_AXES];
+    pk_machine_position_um(&S.m, p1);
+    step(4000); /* two simulated seconds: nothing moves */
+    pk_machine_position_um(&S.m, p2);
+    TH_EXPECT(memcmp(p1, p2, sizeof p1) == 0);
+    TH_EXPECT(pk_machine_state(&S.m) != PK_STATE_RUN);
+    /* Locked until $X; then it moves again from where it stopped. */
+    outn = 0;
+    send("G0 X1\n$X\nG0 X1 Y2\n");
+    TH_ASSERT(run_idle(60));
+    TH_EXPECT(strstr(out, "error:9\r\n") != NULL);
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,2.000,0.000|", 29) == 0);
+}
+
+int th_main(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    static const struct th_case cases[] = {
+        TH_CASE(test_a_streamed_program_ends_exactly_where_it_was_sent),
+        TH_CASE(test_hold_then_resume_mid_stroke_finishes_at_the_exact_end),
+        TH_CASE(test_soft_reset_during_motion_leaves_no_queued_move),
+    };
+    int r = th_run(cases, TH_COUNT(cases));
+    pk_grbl_sim_free(&S);
+    return r;
+}
