@@ -72,6 +72,11 @@ struct pk_hal_ops {
      *  error; write returns bytes accepted (may be fewer than len). */
     int (*uart_read)(void *ctx, uint8_t *buf, size_t len);
     int (*uart_write)(void *ctx, const uint8_t *buf, size_t len);
+
+    /** [MAIN] Optional: text describing the backend's last failure (the one
+     *  that made a member return PK_HAL_EIO), "" if none. Valid until the
+     *  next call on the instance. For alarms and `[MSG:...]` reports. */
+    const char *(*error_text)(void *ctx);
 };
 
 /** One HAL instance: ops + context + the board's static facts. */
@@ -120,6 +125,12 @@ static inline int pk_hal_tool_write(const struct pk_hal *h, uint32_t logical)
 static inline uint32_t pk_hal_irq_save(const struct pk_hal *h)
 {
     return h->ops->irq_save ? h->ops->irq_save(h->ctx) : 0u;
+}
+/** The backend's last failure as text; "" if none or not provided. */
+static inline const char *pk_hal_error_text(const struct pk_hal *h)
+{
+    const char *s = h->ops->error_text ? h->ops->error_text(h->ctx) : NULL;
+    return s ? s : "";
 }
 static inline void pk_hal_irq_restore(const struct pk_hal *h, uint32_t token)
 {

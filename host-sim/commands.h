@@ -8,6 +8,7 @@
 #define PLOTKIN_COMMANDS_H
 
 int cmd_refine(int argc, char **argv); /* host-sim/cmd_refine.c */
+int cmd_sim(int argc, char **argv);    /* host-sim/cmd_sim.c */
 int cmd_serve(int argc, char **argv);  /* host-sim/cmd_serve.c */
 
 #endif

@@ -1,0 +1,22 @@
+# hal/module.mk — the board build: build/plotkin-gpiod, the firmware on real
+# GPIO lines through libgpiod (hal/gpiod/) and real time (hal/posix/).
+#
+# The simulator links host-sim/gpiod_mock.c in place of libgpiod; the board
+# must not. libplotkin_host.a contains the mock, and an archive member is
+# pulled in for any symbol still undefined — gpiod_* included — so the board
+# links its own archive without the mock, followed by -lgpiod.
+
+GPIOD_LIBS := $(shell pkg-config --libs libgpiod 2>/dev/null || echo -lgpiod)
+BOARD_OBJ  := $(filter-out $(BUILD)/obj/host-sim/gpiod_mock.o,$(HAL_OBJ) $(SIM_OBJ))
+
+.PHONY: board-gpiod
+board-gpiod: $(BUILD)/plotkin-gpiod
+
+$(BUILD)/libplotkin_board.a: $(BOARD_OBJ)
+	@mkdir -p $(@D); rm -f $@; ar rcs $@ $^
+
+$(BUILD)/plotkin-gpiod: $(BUILD)/obj/hal/posix/board/plotkin_gpiod.o $(BUILD)/libplotkin_board.a $(BUILD)/libplotkin_fw.a
+	$(CC) $(OPT) -o $@ $< $(BUILD)/libplotkin_board.a $(BUILD)/libplotkin_fw.a $(GPIOD_LIBS) $(HOST_LIBS)
+
+# `make test` builds the board binary too, so a change that breaks it fails CI.
+test-build: $(BUILD)/plotkin-gpiod

@@ -1,0 +1,133 @@
+/*
+ * sim_job.h — run a G-code program (or a plain polyline) through the whole
+ * firmware: the G-code parser and interpreter (pk_gcode.h), the G5/G5.1
+ * flattener (pk_bezier.h) and the motion core (pk_motion.h), on any HAL.
+ *
+ * A job is the producer side of the firmware's main loop: pk_sim_job_main is
+ * one main-loop iteration (feed lines while the machine has room, then
+ * pk_machine_poll) with the contract of sim_sched.h's pk_sim_main_fn, so the
+ * simulator's scheduler runs it on simulated time and the board's POSIX loop
+ * (hal/posix/pk_posix_timer.h) on real time.
+ *
+ * Machine settings come in Grbl's `$N=value` form (struct pk_sim_cfg, with a
+ * typical pen plotter as the default), with the numbers and defaults of the
+ * firmware's Grbl engine (firmware/pk_grbl.c), so a `$$` dump from
+ * `plotkin serve` or a board can be used as is. The job records the commanded path
+ * (every move it requested, pen state included) for the SVG and the
+ * deviation check, and counts lines, errors, alarms and executed segments.
+ *
+ * Host-only code (stdio, heap, doubles for settings and reports).
+ */
+#ifndef PLOTKIN_SIM_JOB_H
+#define PLOTKIN_SIM_JOB_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "pk_bezier.h"
+#include "pk_gcode.h"
+#include "pk_motion.h"
+
+/** Machine configuration in user units (the `$N=value` settings). */
+struct pk_sim_cfg {
+    unsigned axes;                 /**< axes driven (2..PK_AXES), default PK_AXES (not a $ setting) */
+    double steps_per_mm[3];        /**< $100-$102, default 80 */
+    double max_rate[3];            /**< $110-$112 mm/min, default 6000 6000 1500 */
+    double accel[3];               /**< $120-$122 mm/s^2, default 1000 1000 500 */
+    double travel[3];              /**< $130-$132 mm: X, Y in [0, travel], Z within ±travel */
+    double junction_dev;           /**< $11 mm, default 0.01 */
+    double step_pulse_us;          /**< $0 µs, default 10 */
+    double tolerance;              /**< $12 smoothing tolerance mm, default 0.02 */
+    unsigned smooth_mode;          /**< $200 0 off (G61), 1 fixed, 2 tolerance; default 2 */
+    unsigned scheme;               /**< $201 0 B-spline, 1 DLG 4-point (fixed mode) */
+    unsigned degree;               /**< $202 B-spline degree, default 3 */
+    unsigned depth;                /**< $203 fixed mode depth, default 3 */
+    unsigned sharp_deg;            /**< $204 corners turning more than this stay sharp, default 60 */
+    unsigned pen_settle_ms;        /**< $205 dwell after a pen change, default 50 */
+    double dir_setup_us;           /**< $206 direction set-up µs, default 1 */
+    double polyline_feed;          /**< feed for plain polyline files, mm/min, default 3000 */
+    uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
+};
+
+/** A typical pen plotter (see the defaults above). */
+void pk_sim_cfg_default(struct pk_sim_cfg *c);
+
+/**
+ * Apply `$N=value` lines (blank lines and `;`/`#` comments allowed; Grbl
+ * settings that do not apply to plotkin are accepted and ignored, with a
+ * note on `warn` if not NULL). Returns 0, or -1 with "line N: reason" in err.
+ */
+int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t errlen, FILE *warn);
+
+/** Convert to the motion core's settings. Returns 0, or -1 with a reason. */
+int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *out, char *err, size_t errlen);
+
+/**
+ * If text is a plain polyline file (every non-blank line two numbers `x y`,
+ * `#` comments allowed, a blank line lifts the pen between strokes), return
+ * an equivalent G-code program (heap, NUL-terminated): per stroke G0 to its
+ * start, M3, G1 ... at `feed` mm/min, M5; then M2. Otherwise return NULL and
+ * leave *is_polyline 0.
+ */
+char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline);
+
+/** One commanded move (XY, µm). */
+struct pk_sim_move {
+    pk_um_t a[2], b[2];
+    uint8_t rapid;   /**< G0 */
+    uint8_t pen;     /**< pen down while it runs */
+};
+
+struct pk_sim_gc_error { unsigned line; int code; };
+
+/** A running job. Members are read by the report; set up with pk_sim_job_init. */
+struct pk_sim_job {
+    struct pk_machine *m;
+    const struct pk_sim_cfg *cfg;
+    struct pk_gc_state gc;
+    const char *text;
+    size_t len, pos;
+    unsigned lineno;
+    /* G5/G5.1 in progress */
+    struct pk_bez bez;
+    int bez_active;
+    pk_gc_umpm_t bez_feed;
+    pk_um_t cur[PK_AXES];          /**< last requested position */
+    uint8_t pen;                   /**< pen state commanded */
+    int input_done, end_sent, finished;
+    /* results */
+    unsigned long lines, move_requests;
+    unsigned long errors;
+    struct pk_sim_gc_error err[32];  /**< the first errors */
+    unsigned long alarms;
+    int alarm;                     /**< enum pk_alarm of the (first) alarm */
+    char alarm_text[200];
+    unsigned long segments;        /**< LINE blocks the planner queued (executed segments) */
+    unsigned long pen_blocks;
+    struct pk_sim_move *moves;     /**< commanded path (heap) */
+    size_t n_moves, cap_moves;
+    /* progress */
+    FILE *progress;                /**< if not NULL: a progress line now and then */
+    uint64_t next_progress_tick;
+};
+
+/** Prepare a job on an initialised machine; text must outlive the job. */
+void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
+                     const char *text, size_t len);
+
+/** One main-loop iteration (pk_sim_main_fn / pk_posix_main_fn). */
+int pk_sim_job_main(void *arg, uint64_t now_ticks);
+
+void pk_sim_job_free(struct pk_sim_job *j);
+
+/**
+ * Largest distance (µm) from any of the points (x[i], y[i]) (µm) to the
+ * commanded path (every move, both pen states). Points are matched against a
+ * window of moves around the previous match first, and against every move
+ * when that finds nothing within 2 µm, so the result is exact and close to
+ * linear in the path length. Returns -1 if there are no moves.
+ */
+double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y,
+                               size_t n);
+
+#endif

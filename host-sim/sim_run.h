@@ -1,0 +1,70 @@
+/*
+ * sim_run.h — one complete simulated run: a machine's hardware (mock GPIO
+ * chip + gpiod backend + scheduler + trace, sim_machine.h), the motion core
+ * (struct pk_machine) on that HAL, a job feeding it a program (sim_job.h),
+ * then the decoded trace and the figures of the summary.
+ *
+ * Used by `plotkin sim` and by the end-to-end tests; everything lives in the
+ * caller's struct pk_sim_result (plus heap arrays freed by
+ * pk_sim_result_free), so several runs can coexist in one process.
+ */
+#ifndef PLOTKIN_SIM_RUN_H
+#define PLOTKIN_SIM_RUN_H
+
+#include <stdio.h>
+#include "sim_job.h"
+#include "sim_machine.h"
+
+struct pk_sim_opts {
+    const char *chip;               /**< mock chip name, unique among live runs */
+    const struct pk_sim_cfg *cfg;   /**< machine settings */
+    const char *program;            /**< G-code text (see pk_sim_polyline_to_gcode) */
+    size_t len;
+    const struct pk_gpiod_mock *fault; /**< fault plan for the chip, or NULL */
+    struct pk_timing_limits lim;    /**< driver limits for the checks */
+    uint64_t max_ticks;             /**< simulated time limit (0: 24 h) */
+    FILE *progress;                 /**< progress lines, or NULL */
+    unsigned rate_window;           /**< steps per speed estimate (0: 16) */
+};
+
+struct pk_sim_result {
+    struct pk_sim_opts opts;        /**< copy of the options (pointers shared) */
+    struct pk_sim_hw hw;
+    struct pk_machine m;
+    struct pk_sim_job job;
+    struct pk_decoded dec;
+    struct pk_motion_cfg mcfg;
+    int setup_failed;               /**< 1: hardware/machine setup failed (see err) */
+    char err[200];
+    int run_status;                 /**< enum pk_sim_run_status; -1 while running */
+    pk_steps_t fw_steps[PK_AXES];   /**< position the firmware reports */
+    uint64_t ticks;                 /**< simulated time at the end */
+    double max_speed_mm_s[PK_AXES];
+    double max_accel_mm_s2[PK_AXES];
+    double deviation_um;            /**< executed vs commanded path (-1: no moves) */
+};
+
+/**
+ * Run a program. Returns 0 when the run took place (whatever its outcome:
+ * alarms, G-code errors, violations are in *r), -1 when setup failed (r->err
+ * says why: e.g. the GPIO lines could not be requested). In both cases call
+ * pk_sim_result_free(r) afterwards. r is large: static or heap storage.
+ */
+int pk_sim_run(const struct pk_sim_opts *o, struct pk_sim_result *r);
+
+/**
+ * The same in steps, so that several machines can be interleaved in one
+ * process: pk_sim_start sets up (returns -1 on setup failure, see r->err),
+ * pk_sim_advance runs up to `ticks` more simulated ticks (0: to the end) and
+ * returns 1 once the run is over, pk_sim_finish decodes and measures.
+ */
+int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r);
+int pk_sim_advance(struct pk_sim_result *r, uint64_t ticks);
+int pk_sim_finish(struct pk_sim_result *r);
+
+void pk_sim_result_free(struct pk_sim_result *r);
+
+/** Position (µm) of axis a after the decoded steps of r (from steps/mm). */
+double pk_sim_steps_to_um(const struct pk_sim_result *r, unsigned a, int64_t steps);
+
+#endif
