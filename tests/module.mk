@@ -6,7 +6,10 @@
 #       committed seeds in tests/fuzz/corpus/<target>/ (new inputs go to
 #       $(BUILD)/fuzz/work/<target>/, crashes to $(BUILD)/fuzz/artifacts/).
 #   make fuzz-build   only build them.
-#   make soak         the long runs that are kept out of `make test`.
+#   make soak         the long runs kept out of `make test`: 100,000 lines flooded
+#                     over a pty (tests/e2e_flood.sh) and 120 simulated minutes of
+#                     plotting (tests/e2e_soak_sim.sh); PLOTKIN_FLOOD_LINES and
+#                     PLOTKIN_SOAK_MINUTES override.
 #
 # `make test` needs no clang: each target is also linked with the ordinary
 # compiler against tests/fuzz/replay_main.c (plain and ASan+UBSan), and
@@ -50,3 +53,9 @@ $(SAN)/fuzz-replay/%: $(SAN)/obj/tests/fuzz/%.o $(SAN)/obj/tests/fuzz/replay_mai
 	@mkdir -p $(@D)
 	$(CC) $(SANFLAGS) -o $@ $< $(SAN)/obj/tests/fuzz/replay_main.o $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
 test-build: $(FUZZ_REPLAY) $(FUZZ_REPLAY_S)
+
+# ---- long runs (not in make test) --------------------------------------------
+# 100,000 lines flooded over a pty, and two hours of simulated plotting.
+soak: $(BUILD)/plotkin
+	PLOTKIN_FLOOD_LINES=$${PLOTKIN_FLOOD_LINES:-100000} bash tests/e2e_flood.sh
+	PLOTKIN_SOAK_MINUTES=$${PLOTKIN_SOAK_MINUTES:-120} bash tests/e2e_soak_sim.sh
