@@ -1,6 +1,6 @@
 # tests/module.mk — fuzzing (libFuzzer) and the corpus replay run by `make test`.
 #
-#   make fuzz [FUZZ_SECONDS=30] [FUZZ_TARGETS="fuzz_refine ..."] [FUZZ_JOBS=1]
+#   make fuzz [FUZZ_SECONDS=30] [FUZZ_TARGETS="fuzz_refine ..."]
 #       builds every tests/fuzz/fuzz_*.c with clang -fsanitize=fuzzer,address,undefined
 #       and runs each for FUZZ_SECONDS, one after another, starting from the
 #       committed seeds in tests/fuzz/corpus/<target>/ (new inputs go to
