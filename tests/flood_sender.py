@@ -2,7 +2,7 @@
 """Flood `plotkin serve` over its pseudo-terminal with a character-counting
 sender, faster than the machine moves, and check that nothing is lost.
 
-usage: flood_sender.py PTY_PATH LINES SERVE_PID [--reset-every K]
+usage: flood_sender.py PTY_PATH LINES SERVE_PID [--disconnect-at K]
 
 The sender keeps as many lines in flight as fit Grbl's 128-byte receive
 buffer (character counting, as UGS and bCNC do), so the firmware's receive
@@ -14,6 +14,10 @@ ring is full most of the time. The program is a zig-zag of short G1 moves
     rounded to whole steps with the $100/$101 steps/mm the firmware reports
   - the server's resident memory is flat: no growth between 10% of the lines
     and the end beyond 256 kB (fixed-size buffers only)
+With --disconnect-at K the sender closes the pty after K lines (lines in
+flight), waits 0.3 s and opens it again, as a sender that crashes and
+restarts: the answers written meanwhile wait in the pty, so the counts above
+must still hold across the two connections.
 Prints "ok <name>" / "not ok <name>", a figures line, and "N passed, N failed"
 last. Every wait has a deadline.
 """
@@ -26,6 +30,7 @@ import time
 import tty
 
 PTY, LINES, PID = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+DISCONNECT_AT = int(sys.argv[5]) if len(sys.argv) > 5 and sys.argv[4] == "--disconnect-at" else -1
 RX_BUFFER = 128
 results = []
 
@@ -45,8 +50,13 @@ def rss_kb(pid):
     return -1
 
 
-fd = os.open(PTY, os.O_RDWR | os.O_NOCTTY)
-tty.setraw(fd)
+def open_pty():
+    f = os.open(PTY, os.O_RDWR | os.O_NOCTTY)
+    tty.setraw(f, termios.TCSANOW)  # TCSAFLUSH would drop answers waiting in the pty
+    return f
+
+
+fd = open_pty()
 buf = b""
 
 
@@ -139,7 +149,13 @@ sent = 0
 t0 = time.monotonic()
 rss_early = None
 deadline = t0 + max(120, LINES / 100)
+reconnected = False
 while answers < LINES and time.monotonic() < deadline:
+    if DISCONNECT_AT >= 0 and not reconnected and sent >= DISCONNECT_AT:
+        os.close(fd)
+        time.sleep(0.3)
+        fd = open_pty()
+        reconnected = True
     while sent < LINES:
         data = (program_line(sent) + "\n").encode()
         if sum(inflight) + len(data) > RX_BUFFER - 1:
@@ -186,6 +202,8 @@ check("the final position is the last target in whole steps",
 rss_end = rss_kb(PID)
 check("server memory is flat (%s kB at 10%%, %s kB at the end)" % (rss_early, rss_end),
       rss_early is not None and rss_end - rss_early <= 256, (rss_early, rss_end))
+if DISCONNECT_AT >= 0:
+    check("the sender disconnected and reconnected mid-flood", reconnected)
 print("# flood: %d lines in %.1f s (%.0f lines/s), memory %s -> %s kB" %
       (LINES, elapsed, LINES / elapsed if elapsed else 0, rss_early, rss_end))
 os.close(fd)
