@@ -38,6 +38,11 @@
 #include <string.h>
 
 #define TICK_HZ 1000000u
+/* FZ_STRICT=1 (make fuzz-findings) drops the two allowances made for known
+ * findings M1 and M2 (tests/fuzz/README.md), so their inputs reproduce them. */
+#ifndef FZ_STRICT
+#define FZ_STRICT 0
+#endif
 #define RING 32u
 
 /* ---- the harness's HAL ------------------------------------------------------ */
@@ -120,7 +125,7 @@ static int h_step(void *c, uint32_t mask, uint32_t levels)
         /* A reset lowers the step lines at once, even in the middle of a
          * pulse (reported: tests/fuzz/README.md, finding M2); only then may a
          * pulse be shorter than step_pulse_ticks. */
-        if (was && !is && !H.in_reset)
+        if (was && !is && (!H.in_reset || FZ_STRICT))
             FZ_CHECK(H.now >= H.rise[a] + H.pulse_ticks, "step pulse lasts step_pulse_ticks");
     }
     H.step_raw = (H.step_raw & ~mask) | (levels & mask);
@@ -230,7 +235,7 @@ static void do_reset(void)
     H.in_reset = 1;
     pk_machine_reset(&MACH);
     H.in_reset = 0;
-    if (H.failed && H.failed_in_reset)
+    if (H.failed && H.failed_in_reset && !FZ_STRICT)
         H.failed = 0;
 }
 
