@@ -2,7 +2,8 @@
  * motion_time.c — how much smoothing buys in motion time, and what it costs
  * in path deviation (prints a table; not a test).
  *
- * Paths: a circle of radius 20 mm as 200 segments, and a text-like path
+ * Paths: a circle of radius 20 mm as 200 segments (and, coarser, as 40
+ * segments, where the corners start to limit the speed), and a text-like path
  * (letters with sharp corners, small round bowls and an S curve) drawn as one
  * pen-down program. Each runs on the real motion core and the recording HAL
  * (80 steps/mm, 1 MHz timer, 1000 mm/s^2, junction deviation 0.01 mm, feed
@@ -142,11 +143,11 @@ static void reference(const struct poly *in, struct poly *ref, double cap)
     }
 }
 
-static void circle(struct poly *q)
+static void circle(struct poly *q, int nseg)
 {
     q->n = 0;
-    for (int k = 0; k <= 200; k++) {
-        double a = M_PI + 2 * M_PI * k / 200;
+    for (int k = 0; k <= nseg; k++) {
+        double a = M_PI + 2 * M_PI * k / nseg;
         add(q, lround(20000 + 20000 * cos(a)), lround(20000 * sin(a)));
     }
 }
@@ -293,14 +294,16 @@ int main(void)
     printf("motion time, 80 steps/mm, accel 1000 mm/s^2, junction deviation 0.01 mm\n");
     printf("%-12s %6s %7s %9s | %-18s %9s %6s %9s\n", "path", "F", "inputs", "length", "mode", "time s",
            "segs", "dev um");
-    for (int w = 0; w < 4; w++) {
-        FEED = w < 2 ? 3000000u : 12000000u;
-        if (w % 2 == 0)
-            circle(&in);
+    for (int w = 0; w < 6; w++) {
+        FEED = w < 3 ? 3000000u : 12000000u;
+        if (w % 3 == 0)
+            circle(&in, 200);
+        else if (w % 3 == 1)
+            circle(&in, 40);
         else
             text(&in);
         double L = length_mm(&in);
-        const char *name = w % 2 == 0 ? "circle r=20" : "text-like";
+        const char *name = w % 3 == 0 ? "circle r=20" : w % 3 == 1 ? "circle r=20" : "text-like";
         struct row off = run(&in, PK_SMOOTH_OFF);
         struct row tol = run(&in, PK_SMOOTH_TOLERANCE);
         printf("%-12s %6u %7zu %7.2fmm | %-18s %9.3f %6u %9.2f\n", name, FEED / 1000u, in.n - 1, L,

@@ -45,9 +45,9 @@ static const struct setting_def settings_table[PK_GRBL_S_COUNT] = {
     [PK_GRBL_S_STEP_PULSE_US] = { 0, 1, U6(10), U6(1), U6(1000) },
     [PK_GRBL_S_JUNCTION_MM] = { 11, 0, U6M(10), 0, U6(10) },
     [PK_GRBL_S_TOLERANCE_MM] = { 12, 0, U6M(20), U6M(1), U6(10) },
-    [PK_GRBL_S_STEPS_X] = { 100, 0, U6(80), U6M(100), U6(10000) },
-    [PK_GRBL_S_STEPS_Y] = { 101, 0, U6(80), U6M(100), U6(10000) },
-    [PK_GRBL_S_STEPS_Z] = { 102, 0, U6(80), U6M(100), U6(10000) },
+    [PK_GRBL_S_STEPS_X] = { 100, 0, U6(80), U6(1), U6(10000) },
+    [PK_GRBL_S_STEPS_Y] = { 101, 0, U6(80), U6(1), U6(10000) },
+    [PK_GRBL_S_STEPS_Z] = { 102, 0, U6(80), U6(1), U6(10000) },
     [PK_GRBL_S_RATE_X] = { 110, 0, U6(6000), U6(1), U6(60000) },
     [PK_GRBL_S_RATE_Y] = { 111, 0, U6(6000), U6(1), U6(60000) },
     [PK_GRBL_S_RATE_Z] = { 112, 0, U6(1500), U6(1), U6(60000) },
@@ -189,7 +189,8 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
     switch (b) {
     case '?':
     case '!':
-    case '~': {
+    case '~':
+    case 0x85: {
         uint8_t h = g->rt_head;
         if ((uint8_t)(h - g->rt_tail) < sizeof g->rt_buf) {
             g->rt_buf[h & (sizeof g->rt_buf - 1u)] = b;
@@ -203,7 +204,7 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
         g->rt_resets = (uint8_t)(g->rt_resets + 1u);
         return 1;
     default:
-        if (b == 0x84 || b == 0x85 || b == 0x87 || (b >= 0x90 && b <= 0x9D) || b == 0xA0 ||
+        if (b == 0x84 || b == 0x87 || (b >= 0x90 && b <= 0x9D) || b == 0xA0 ||
             b == 0xA1)
             return 1; /* Grbl's extended realtime commands: claimed, not implemented */
         return 0;
@@ -229,6 +230,8 @@ static void status_report(struct pk_grbl *g)
         puts_(g, "Alarm");
     else if (g->check_mode)
         puts_(g, "Check");
+    else if (g->jogging && (st == PK_GRBL_M_RUN || g->cmd_todo))
+        puts_(g, "Jog");
     else if (st == PK_GRBL_M_RUN)
         puts_(g, "Run");
     else if (st == PK_GRBL_M_HOLDING)
@@ -272,6 +275,8 @@ static void drop_input(struct pk_grbl *g)
     g->bez_on = 0;
     g->pt_held = 0;
     g->report = R_NONE;
+    g->jogging = 0;
+    g->jog_cancel = 0;
 }
 
 static void soft_reset(struct pk_grbl *g)
@@ -314,6 +319,9 @@ static void realtime(struct pk_grbl *g)
                 g->mo.hold(g->m);
         } else if (b == '~') {
             g->mo.resume(g->m);
+        } else if (b == 0x85 && g->jogging) {
+            g->mo.hold(g->m);
+            g->jog_cancel = 1;
         }
     }
 }
@@ -370,7 +378,7 @@ static int continue_report(struct pk_grbl *g)
             goto done;
         }
         case R_INFO:
-            puts_(g, "[VER:1.1h." PK_GRBL_VERSION_STR ":]\r\n[OPT:,");
+            puts_(g, "[VER:1.1h.plotkin-0.1:]\r\n[OPT:,");
             put_u32(g, g->mo.blocks_total(g->m));
             puts_(g, ",");
             put_u32(g, PK_GRBL_RX_ADVERTISED);
@@ -389,7 +397,7 @@ static int continue_report(struct pk_grbl *g)
             puts_(g, " S0]\r\n");
             goto done;
         case R_HELP:
-            puts_(g, "[HLP:$$ $# $G $I $C $X $x=val ~ ! ? ctrl-x]\r\n");
+            puts_(g, "[HLP:$$ $# $G $I $C $X $J=line $x=val ~ ! ? ctrl-x]\r\n");
             goto done;
         default:
             goto done;
@@ -448,6 +456,46 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
     g->mo.position_um(g->m, g->gc.pos_um);
     g->pen_now = 2;
     return 0;
+}
+
+static void run_pending(struct pk_grbl *g);
+
+/* "$J=<words>": a jog move. Returns a Grbl status; on success the move is
+ * the pending command (answered once handed to the machine). */
+static int jog(struct pk_grbl *g, const uint8_t *s, size_t n)
+{
+    int st = mstate(g);
+    if (g->alarm || st == PK_GRBL_M_ALARM)
+        return 9;
+    if (!(st == PK_GRBL_M_IDLE || (g->jogging && st == PK_GRBL_M_RUN)) || g->jog_cancel)
+        return 8;
+    struct pk_gc_block b;
+    int rc = pk_gcode_parse(s, n, &b);
+    if (rc != PK_GC_OK)
+        return rc;
+    const uint16_t groups_ok = PK_GC_GBIT(PK_GC_G_DISTANCE) | PK_GC_GBIT(PK_GC_G_UNITS);
+    const uint16_t words_ok = PK_GC_AXIS_WORDS | PK_GC_WBIT(PK_GC_W_F) | PK_GC_WBIT(PK_GC_W_N);
+    if ((b.groups & ~groups_ok) || (b.words & ~words_ok))
+        return 16;
+    if (!(b.words & PK_GC_WBIT(PK_GC_W_F)))
+        return PK_GC_E_UNDEFINED_FEED;
+    if (!(b.words & PK_GC_AXIS_WORDS))
+        return PK_GC_E_NO_AXIS_WORDS;
+    /* A jog changes the position, never the program's modal state. */
+    struct pk_gc_state tmp = g->gc;
+    b.groups |= PK_GC_GBIT(PK_GC_G_MOTION);
+    b.motion = PK_GC_MOT_LINEAR;
+    rc = pk_gcode_interp(&tmp, &b, &g->cmd);
+    if (rc != PK_GC_OK)
+        return rc;
+    if (g->check_mode)
+        return 0;
+    for (int a = 0; a < PK_GC_AXES; a++)
+        g->gc.pos_um[a] = tmp.pos_um[a];
+    g->gc.cubic_prev = 0;
+    g->jogging = 1;
+    g->cmd_todo = PK_GC_DO_MOVE;
+    return -1; /* pending */
 }
 
 /* A line starting with '$' (s excludes leading blanks). Answers it, or starts
@@ -514,6 +562,17 @@ static void system_line(struct pk_grbl *g, const uint8_t *s, size_t n)
             puts_(g, "[MSG:Enabled]\r\n");
             rc = 0;
         }
+    } else if (k >= 2 && c[0] == 'J' && c[1] == '=') {
+        size_t eq = 0;
+        while (s[eq] != '=')
+            eq++;
+        rc = jog(g, s + eq + 1, n - eq - 1);
+        if (rc < 0) {
+            g->bez_on = 0;
+            g->pt_held = 0;
+            run_pending(g);
+            return;
+        }
     } else if (k == 1 && c[0] == 'H') {
         rc = 5; /* homing not enabled */
     } else if (k >= 2 && c[0] >= '0' && c[0] <= '9') {
@@ -568,8 +627,11 @@ static int advance(struct pk_grbl *g)
                     p[2][0] = c->target_um[0];
                     p[2][1] = c->target_um[1];
                 }
+                /* The curve is flattened within the smoothing tolerance in
+                 * force: G64 P<tol> if one was given, else $12. */
                 pk_bez_init(&g->bez, (const pk_um_t(*)[2])p, c->motion == PK_GC_MOT_QUAD,
-                            mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
+                            g->gc.tol_um > 0 ? g->gc.tol_um
+                                             : mm_setting_um(&g->set, PK_GRBL_S_TOLERANCE_MM));
                 g->bez_on = 1;
                 g->pt_held = 0;
             }
@@ -665,7 +727,7 @@ static void process_line(struct pk_grbl *g)
         answer(g, 0); /* empty or comment line: ok, as Grbl answers */
         return;
     }
-    if (g->alarm || mstate(g) == PK_GRBL_M_ALARM) {
+    if (g->alarm || mstate(g) == PK_GRBL_M_ALARM || g->jogging) {
         answer(g, 9);
         return;
     }
@@ -752,6 +814,24 @@ void pk_grbl_poll(struct pk_grbl *g)
         if (g->cmd_todo) {
             g->cmd_todo = 0;
             answer(g, 9);
+        }
+    }
+    if (g->jogging) {
+        int st = mstate(g);
+        if (g->jog_cancel && (st == PK_GRBL_M_HOLD || st == PK_GRBL_M_IDLE)) {
+            /* Stopped within the acceleration limit: now drop what is left
+             * of the jog (no alarm: nothing was cut while moving). */
+            g->mo.reset(g->m);
+            g->pen_now = 2;
+            g->mo.position_um(g->m, g->gc.pos_um);
+            if (g->cmd_todo) {
+                g->cmd_todo = 0;
+                answer(g, 0);
+            }
+            g->jogging = 0;
+            g->jog_cancel = 0;
+        } else if (!g->jog_cancel && st == PK_GRBL_M_IDLE && g->cmd_todo == 0) {
+            g->jogging = 0;
         }
     }
     flush(g);

@@ -16,14 +16,17 @@
  *     '!' feed hold, '~' cycle start/resume, 0x18 soft reset. They are claimed
  *     by pk_grbl_rt_filter() in the receive interrupt (see pk_uart.h); if one
  *     reaches the line stream anyway it is handled the same way and dropped.
- *     Grbl's extended realtime bytes (0x84, 0x85, 0x87, 0x90-0x9D, 0xA0-0xA1)
- *     are claimed and ignored; any other non-ASCII byte makes its line fail
- *     with error:1.
+ *     0x85 jog cancel is acted on; Grbl's other extended realtime bytes (0x84,
+ *     0x87, 0x90-0x9D, 0xA0-0xA1: door, overrides) are claimed and ignored;
+ *     any other non-ASCII byte makes its line fail with error:1.
  *   - status "<Idle|MPos:x,y,z|Bf:blocks,rx|FS:feed,0>" (+"|WCO:x,y,z" when a
  *     G92 offset is set), states Idle, Run, Hold:0, Hold:1, Alarm, Check.
  *   - $ commands: $ (help), $$ (settings), $N=value, $X (unlock), $C (check
  *     mode), $I (build info, "[OPT:,blocks,128]"), $G (parser state), $#
- *     (offsets), $H (error:5, no homing). See pk_grbl.c for the settings.
+ *     (offsets), $H (error:5, no homing), $J= (jog: G20/G21 G90/G91, axis
+ *     words and F only; modal state untouched; travel checked, error:15;
+ *     state "Jog"; 0x85 cancels with a controlled stop and flushes the
+ *     remaining jog moves). See pk_grbl.c for the settings.
  *
  * The engine drives the machine through struct pk_grbl_machine_ops (a thin
  * adapter onto pk_motion.h in pk_grbl_motion.c; tests use a fake), and does
@@ -169,6 +172,8 @@ struct pk_grbl {
     uint8_t alarm;        /* Grbl alarm code latched (0 none): G-code locked */
     uint8_t check_mode;
     uint8_t m_alarm_seen;
+    uint8_t jogging;      /* $J= moves handed over and not finished: state "Jog" */
+    uint8_t jog_cancel;   /* 0x85 received: hold, then flush once stopped */
     /* realtime events from the ISR: SPSC ring + reset counter */
     volatile uint8_t rt_buf[16];
     volatile uint8_t rt_head;       /* ISR only */

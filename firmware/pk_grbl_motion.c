@@ -139,19 +139,13 @@ static pk_gc_umpm_t op_speed(void *ctx)
 static int op_configure(void *ctx, const struct pk_grbl_settings *s)
 {
     struct pk_grbl_motion *gm = ctx;
-    if (gm->ready && pk_machine_state(gm->m) != PK_STATE_IDLE)
-        return -1;
     struct pk_motion_cfg cfg;
     pk_grbl_motion_cfg(s, gm->hal->tick_hz, &cfg);
-    if (pk_machine_init(gm->m, &cfg, gm->hal) != PK_MOTION_OK) {
-        /* Refused: bring the machine back up with the settings it had. */
-        if (gm->ready) {
-            pk_grbl_motion_cfg(&gm->set, gm->hal->tick_hz, &cfg);
-            if (pk_machine_init(gm->m, &cfg, gm->hal) != PK_MOTION_OK)
-                gm->ready = 0;
-        }
+    /* First time: initialise. Afterwards: reconfigure, which keeps the step
+     * position and changes nothing if it refuses (not idle, out of range). */
+    int rc = gm->ready ? pk_machine_configure(gm->m, &cfg) : pk_machine_init(gm->m, &cfg, gm->hal);
+    if (rc != PK_MOTION_OK)
         return -1;
-    }
     gm->set = *s;
     gm->ready = 1;
     return 0;

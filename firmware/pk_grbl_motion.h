@@ -7,8 +7,9 @@
  *   steps/mm (1e-6 steps/mm) -> Q16.16, rates mm/min -> µm/min,
  *   accelerations mm/s^2 -> µm/s^2, $0 / $206 µs -> HAL ticks (at least 1),
  *   $11 mm -> µm, $12 mm -> tolerance µm, $200..$204 -> struct pk_smooth_cfg.
- * Applying settings re-initialises the machine (only ever while idle): its
- * step position then restarts at 0, as after power-up.
+ * The first settings initialise the machine (pk_machine_init); later ones
+ * go through pk_machine_configure, which keeps the step position (the mm
+ * position follows a new steps/mm, as in Grbl) and refuses while moving.
  *
  * Usage:
  *     struct pk_grbl_motion gm = { &machine, &hal };

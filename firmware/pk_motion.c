@@ -48,20 +48,11 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
     return 0;
 }
 
-int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
-                    const struct pk_hal *hal)
+/* Build the modules from m->cfg (everything but the pins and the position). */
+static void setup_modules(struct pk_machine *m)
 {
-    if (m == NULL || cfg == NULL)
-        return PK_MOTION_EINVAL;
-    if (pk_hal_check(hal) != PK_HAL_OK)
-        return PK_MOTION_EHAL;
-    if (hal->tick_hz > (1u << 25) || check_cfg(cfg, hal->tick_hz) != 0)
-        return PK_MOTION_EINVAL;
-    memset(m, 0, sizeof *m);
-    m->cfg = *cfg;
-    if (m->cfg.axes == 0)
-        m->cfg.axes = PK_AXES;
-    m->hal = hal;
+    const struct pk_motion_cfg *cfg = &m->cfg;
+    const struct pk_hal *hal = m->hal;
     struct pk_planner_limits lim;
     memset(&lim, 0, sizeof lim);
     lim.axes = m->cfg.axes;
@@ -74,6 +65,23 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
     pk_mq_init(&m->mq);
     pk_stroke_init(&m->stroke, &cfg->smooth);
     pk_sg_init(&m->sg, m->cfg.axes, hal->tick_hz, cfg->step_pulse_ticks, cfg->dir_setup_ticks);
+}
+
+int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
+                    const struct pk_hal *hal)
+{
+    if (m == NULL || cfg == NULL)
+        return PK_MOTION_EINVAL;
+    if (pk_hal_check(hal) != PK_HAL_OK)
+        return PK_MOTION_EHAL;
+    if (hal->tick_hz > ((uint32_t)1 << 25) || check_cfg(cfg, hal->tick_hz) != 0)
+        return PK_MOTION_EINVAL;
+    memset(m, 0, sizeof *m);
+    m->cfg = *cfg;
+    if (m->cfg.axes == 0)
+        m->cfg.axes = PK_AXES;
+    m->hal = hal;
+    setup_modules(m);
     uint32_t all = (1u << m->cfg.axes) - 1u;
     if (pk_hal_step_write(hal, all, 0u) != 0 || pk_hal_dir_write(hal, all, 0u) != 0)
         return PK_MOTION_EHAL;
@@ -83,6 +91,35 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
     r = pk_hal_tool_write(hal, cfg->pen_down_level ^ 1u);
     if (r != 0 && r != PK_HAL_ENOSYS)
         return PK_MOTION_EHAL;
+    return PK_MOTION_OK;
+}
+
+int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
+{
+    if (cfg == NULL || check_cfg(cfg, m->hal->tick_hz) != 0)
+        return PK_MOTION_EINVAL;
+    enum pk_machine_state st = pk_machine_state(m);
+    if (st != PK_STATE_IDLE && st != PK_STATE_ALARM)
+        return PK_MOTION_EBUSY;
+    if (st == PK_STATE_ALARM && (m->sg.busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
+                                 || m->inq_count > 0 || pk_stroke_is_open(&m->stroke)))
+        return PK_MOTION_EBUSY;
+    pk_steps_t pos[PK_AXES];
+    memcpy(pos, m->sg.pos, sizeof pos);
+    uint8_t dir = m->sg.dir_cur, alarm = m->sg.alarm;
+    uint32_t lines = m->lines_planned;
+    m->cfg = *cfg;
+    if (m->cfg.axes == 0)
+        m->cfg.axes = PK_AXES;
+    setup_modules(m);
+    for (uint32_t i = 0; i < PK_AXES; i++) {
+        m->sg.pos[i] = i < axes_of(m) ? pos[i] : 0;
+        m->target_steps[i] = m->sg.pos[i];
+        m->target_um[i] = i < axes_of(m) ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
+    }
+    m->sg.dir_cur = dir;
+    m->sg.alarm = alarm;
+    m->lines_planned = lines;
     return PK_MOTION_OK;
 }
 

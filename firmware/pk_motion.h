@@ -78,7 +78,8 @@ enum pk_motion_status {
     PK_MOTION_ERANGE = -21, /**< a value outside its documented range; nothing changed */
     PK_MOTION_EINVAL = -22, /**< bad configuration (init / set_smoothing) */
     PK_MOTION_EALARM = -23, /**< the machine is in ALARM: reset first; nothing changed */
-    PK_MOTION_EHAL = -24    /**< init: the HAL failed pk_hal_check() or a write failed */
+    PK_MOTION_EHAL = -24,   /**< init: the HAL failed pk_hal_check() or a write failed */
+    PK_MOTION_EBUSY = -25   /**< configure: the machine is not idle; nothing changed */
 };
 
 /** Machine state as reported to the user (maps onto Grbl's Idle/Run/Hold/Alarm). */
@@ -186,6 +187,19 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
                     const struct pk_hal *hal);
 
 /**
+ * Change the settings of an initialised machine without losing its position
+ * (Grbl's $-settings): validated like init; the step position is kept (the
+ * µm position follows the new steps/mm, as in Grbl); the pins are not
+ * touched. Axes newly enabled by cfg->axes start at 0 steps.
+ * @retval PK_MOTION_OK      applied
+ * @retval PK_MOTION_EINVAL  a setting is out of range; nothing changed
+ * @retval PK_MOTION_EBUSY   not IDLE or ALARM (motion, queue or requests
+ *                           pending); nothing changed
+ * Calling context: MAIN.
+ */
+int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
+
+/**
  * Request a straight move to an absolute target (µm, axes beyond cfg.axes
  * ignored). FEED moves join the current stroke (a different feed ends it);
  * RAPID moves end the stroke and run at the axes' max rates (feed ignored).
@@ -227,11 +241,16 @@ uint32_t pk_machine_room(const struct pk_machine *m);
  * Main-loop work: take requests from the FIFO, feed strokes through the
  * kernel, pull refined points into the planner while the motion queue has
  * room, replan, prepare step chunks, and arm the HAL timer when there is motion
- * to run (timer_start with pk_machine_timer_cb and m). timer_start may come
- * right after the callback returned 0, before a threaded backend has acted on
- * that 0: the backend must then keep the new arming. Bounded work per call;
- * call it often (at least every millisecond of motion the chunk buffer holds,
- * see PK_SG_CHUNKS). Harmless in ALARM (does nothing).
+ * to run (timer_start with pk_machine_timer_cb and m).
+ *
+ * Bounded work per call (at most 64 requests taken). Call it often, every
+ * millisecond or so (the tests run it every 10 µs to 1 ms). If it comes so
+ * late that the timer used every prepared chunk mid-motion (an underrun), the
+ * timer stops and the next poll restarts it: steps are delayed, never lost or
+ * reordered (a speed discontinuity, the main loop's fault). timer_start may
+ * come right after the callback returned 0, before a threaded backend has
+ * acted on that 0: the backend must then keep the new arming. Harmless in
+ * ALARM (does nothing).
  * Calling context: MAIN.
  */
 void pk_machine_poll(struct pk_machine *m);
@@ -248,6 +267,9 @@ uint64_t pk_machine_timer_cb(void *arg, uint64_t now_ticks);
 
 /** Feed hold (Grbl '!'): decelerate along the path within the acceleration
  *  limits, stop, keep the remaining queue and the exact position.
+ *  The deceleration starts after the chunks already handed to the timer (at
+ *  most PK_SG_CHUNKS chunks of at most 2 ms each), so it begins within about
+ *  PK_SG_CHUNKS * 2 ms plus one poll period.
  *  State becomes HOLDING, then HOLD. No effect when idle or in ALARM. MAIN. */
 void pk_machine_hold(struct pk_machine *m);
 

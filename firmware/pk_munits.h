@@ -37,7 +37,7 @@ typedef uint64_t pk_v2_q4_t;
 
 typedef uint32_t pk_spmm_q16_t;
 #define PK_SPMM_Q16_SHIFT 16
-#define PK_SPMM_Q16_MIN ((pk_spmm_q16_t)1 << 12)        /**< 1/16 step per mm */
+#define PK_SPMM_Q16_MIN ((pk_spmm_q16_t)1 << 16)        /**< 1 step per mm (bounds the step generator's products) */
 #define PK_SPMM_Q16_MAX ((pk_spmm_q16_t)10000u << 16)   /**< 10,000 steps per mm */
 
 typedef int32_t pk_steps_t;

@@ -128,19 +128,26 @@ static void lv_mask(const struct pk_level *lv, unsigned dims, unsigned back0, co
     }
 }
 
-/* Two-point combination (wa*A + wb*B) / 2^s in int32 — the Chaikin fast path.
- * |A|,|B| < 2^29 and wa + wb = 2^s <= 4 keep the sum below 2^31. */
-static void mix2(const pk_w8_t *A, const pk_w8_t *B, int32_t wa, int32_t wb, unsigned s,
-                 unsigned dims, pk_w8_t *out)
+/* Two-point combinations in int32 — the Chaikin fast path. The weights are
+ * 1 or 3, formed by additions (no multiply: an AVR has no 32-bit multiplier,
+ * and the helper call cost a fifth of its cycles). |A|,|B| < 2^29 keeps the
+ * sums below 2^31. */
+static int32_t sum31(int32_t a, int32_t b) { return a + a + a + b; }
+
+static void mix_q(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
 {
-    out[0] = pk_rshift_round32(wa * A[0] + wb * B[0], s);
-    out[1] = pk_rshift_round32(wa * A[1] + wb * B[1], s);
-#if PK_AXES > 2
-    if (dims > 2u)
-        out[2] = pk_rshift_round32(wa * A[2] + wb * B[2], s);
-#else
-    (void)dims;
-#endif
+    for (unsigned a = 0; a < dims; a++)
+        out[a] = pk_rshift_round32(sum31(A[a], B[a]), 2);
+}
+static void mix_r(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
+{
+    for (unsigned a = 0; a < dims; a++)
+        out[a] = pk_rshift_round32(sum31(B[a], A[a]), 2);
+}
+static void mix_mid(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
+{
+    for (unsigned a = 0; a < dims; a++)
+        out[a] = pk_rshift_round32(A[a] + B[a], 1);
 }
 
 /* ---- level: feed ------------------------------------------------------- */
@@ -276,9 +283,9 @@ static void lr_eval(const struct pk_refine *r, const struct pk_level *lv, unsign
     if (D == 2u) { /* Chaikin fast path */
         const pk_w8_t *A = lv_at(lv, back0), *B = lv_at(lv, back0 - 1u);
         if (odd)
-            mix2(A, B, 1, 3, 2, dims, out);
+            mix_r(A, B, dims, out);
         else
-            mix2(A, B, 3, 1, 2, dims, out);
+            mix_q(A, B, dims, out);
         return;
     }
     int8_t w[5];
@@ -328,11 +335,14 @@ static void emit_ch_clamped(const struct pk_refine *r, struct pk_level *lv, pk_w
         if (n == 2u || ph == 1u)
             pt_copy(out, B, dims); /* Pm-1 */
         else
-            mix2(A, B, 1, 1, 1, dims, out); /* M(m-2) */
+            mix_mid(A, B, dims, out); /* M(m-2) */
     } else if (n == 2u) {
-        mix2(A, B, 1, 1, 1, dims, out); /* M0 */
+        mix_mid(A, B, dims, out); /* M0 */
     } else {
-        mix2(A, B, ph ? 1 : 3, ph ? 3 : 1, 2, dims, out); /* Qi, Ri */
+        if (ph)
+            mix_r(A, B, dims, out); /* Ri */
+        else
+            mix_q(A, B, dims, out); /* Qi */
     }
 }
 
@@ -343,6 +353,8 @@ static void emit_ch_clamped(const struct pk_refine *r, struct pk_level *lv, pk_w
  * m = 3 falls back to the clamped quadratic, m = 4 is the Bezier split. */
 static void emit_cubic_clamped(const struct pk_refine *r, struct pk_level *lv, pk_w8_t *out)
 {
+    if (PK_WIN < 4) /* never reached: init refuses the scheme in such a build */
+        return;
     unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
     int fin = (lv->st & LV_FIN) != 0;
     if (n == 1u) {
@@ -353,23 +365,23 @@ static void emit_cubic_clamped(const struct pk_refine *r, struct pk_level *lv, p
         if (fin)
             pt_copy(out, lv_at(lv, 0), dims);
         else
-            mix2(lv_at(lv, 1), lv_at(lv, 0), 1, 1, 1, dims, out);
+            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
         return;
     }
     if (n == 3u) { /* only on finish: M1, P2 */
         if (ph == 0u)
-            mix2(lv_at(lv, 1), lv_at(lv, 0), 1, 1, 1, dims, out);
+            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
         else
             pt_copy(out, lv_at(lv, 0), dims);
         return;
     }
     if (n == 4u) {
         if (!fin) { /* T12 */
-            mix2(lv_at(lv, 2), lv_at(lv, 1), 3, 1, 2, dims, out);
+            mix_q(lv_at(lv, 2), lv_at(lv, 1), dims, out);
         } else if (ph == 0u) { /* E12 */
-            mix2(lv_at(lv, 2), lv_at(lv, 1), 1, 1, 1, dims, out);
+            mix_mid(lv_at(lv, 2), lv_at(lv, 1), dims, out);
         } else if (ph == 1u) { /* E23 */
-            mix2(lv_at(lv, 1), lv_at(lv, 0), 1, 1, 1, dims, out);
+            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
         } else {
             pt_copy(out, lv_at(lv, 0), dims);
         }
@@ -383,11 +395,11 @@ static void emit_cubic_clamped(const struct pk_refine *r, struct pk_level *lv, p
         w[1] = (int8_t)(16 - w[0] - w[2]);
         lv_mask(lv, dims, 3, w, 3, 4, out);
     } else if (!fin) { /* E(i, i+1) */
-        mix2(lv_at(lv, 2), lv_at(lv, 1), 1, 1, 1, dims, out);
+        mix_mid(lv_at(lv, 2), lv_at(lv, 1), dims, out);
     } else if (ph == 1u) { /* T'(i, i+1) */
-        mix2(lv_at(lv, 2), lv_at(lv, 1), 1, 3, 2, dims, out);
+        mix_r(lv_at(lv, 2), lv_at(lv, 1), dims, out);
     } else if (ph == 2u) { /* E(i+1, i+2) */
-        mix2(lv_at(lv, 1), lv_at(lv, 0), 1, 1, 1, dims, out);
+        mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
     } else {
         pt_copy(out, lv_at(lv, 0), dims);
     }
@@ -399,6 +411,8 @@ static const int8_t dlg_right[3] = { -1, 10, 7 }; /* ghost Pm = 2Pm-1 - Pm-2 */
 
 static void emit_dlg(const struct pk_refine *r, struct pk_level *lv, unsigned kind, pk_w8_t *out)
 {
+    if (PK_WIN < 4) /* never reached: init refuses the scheme in such a build */
+        return;
     unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
     if (kind == K_DLG_OPEN) {
         if (n == 1u) {

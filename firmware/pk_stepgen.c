@@ -195,6 +195,20 @@ static void fit(struct pk_sg_chunk *c, uint32_t n, int64_t e1, int64_t en, int64
     int64_t den = N * (N - 1) * (N - 2);
     c->c2 = pk_div_round64(6 * N * X - 12 * Y, den);
     c->c1 = pk_div_round64(X - c->c2 * (N - 1) * (N - 2) / 2, N - 1);
+    /* Re-verify: every interval of the recurrence must be positive (the
+     * chunk sizing keeps the speed change within ~6%, so the quadratic is
+     * nearly flat; this only guards against a pathological fit). Otherwise
+     * fall back to the linear fit (first interval and total). */
+    int64_t I = c->c0, A = c->c1;
+    for (uint32_t j = 0; j < n; j++) {
+        if (I < 1) {
+            c->c2 = 0;
+            c->c1 = (2 * (S - N * e1)) / (N * (N - 1));
+            return;
+        }
+        I += A;
+        A += c->c2;
+    }
 }
 
 static int64_t fit_sum(const struct pk_sg_chunk *c)

@@ -16,7 +16,9 @@
  * accumulated.
  *
  * The pty survives client disconnects (we hold our own slave fd open), so a
- * sender can disconnect and reconnect. SIGINT/SIGTERM stop it cleanly and a
+ * sender can disconnect and reconnect; output nobody has read for a second
+ * or more (answers to a client that has gone) is discarded, so the next
+ * client does not start with stale lines. SIGINT/SIGTERM stop it cleanly and a
  * summary is printed.
  *
  * The machine here is motion's recording HAL with logging off (constant
@@ -140,7 +142,9 @@ int cmd_serve(int argc, char **argv)
     fflush(stdout);
 
     uint64_t t0 = now_ns(), wall_start = t0;
-    uint64_t sim_base = 0, lag_events = 0;
+    uint64_t sim_base = 0, lag_events = 0, stale_flushes = 0;
+    uint64_t next_stale_check = t0 + 1000000000ull;
+    size_t unread_prev = 0;
     int io_error = 0;
     while (!serve_stop) {
         if (pk_serial_pump(&ser, &sim->uart) != 0) {
@@ -175,6 +179,18 @@ int cmd_serve(int argc, char **argv)
             t0 = now_ns();
             continue;
         }
+        /* Answers nobody has read for a whole second belong to a client
+         * that has gone: drop them so the next one starts clean. */
+        if (!device && now_ns() >= next_stale_check) {
+            size_t unread = pk_serial_unread(&ser);
+            if (unread > 0 && unread_prev > 0 && unread >= unread_prev) {
+                pk_serial_discard_unread(&ser);
+                stale_flushes++;
+                unread = 0;
+            }
+            unread_prev = unread;
+            next_stale_check = now_ns() + 1000000000ull;
+        }
         if (sim->rec.now >= now_target) {
             struct pollfd p = { ser.fd, POLLIN, 0 };
             poll(&p, 1, 1);
@@ -189,9 +205,10 @@ int cmd_serve(int argc, char **argv)
            (double)sim->rec.now / TICK_HZ, wall, speed, lag_events ? " (host could not keep up)" : "");
     printf("  lines %u: %u ok, %u error; moves %u; soft resets %u\n", st->lines, st->ok,
            st->errors, st->moves, st->resets);
-    printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow\n",
+    printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow, "
+           "%llu unread-output discards\n",
            (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
-           (unsigned)pk_uart_rx_dropped(&sim->uart));
+           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)stale_flushes);
     printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->m)),
            pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
     fflush(stdout);

@@ -61,7 +61,8 @@ static int f_smooth(void *m, int exact, pk_um_t tol)
     return f_push(m, (struct req){ REQ_SMOOTH, { exact, 0, 0 }, tol });
 }
 static int f_end(void *m) { return f_push(m, (struct req){ REQ_END, { 0 }, 0 }); }
-static void f_hold(void *m) { struct fake *f = m; if (f->qn) f->held = 1; }
+/* A hold decelerates (HOLDING) until the next executed step, then stops (HOLD). */
+static void f_hold(void *m) { struct fake *f = m; if (f->qn) f->held = 2; }
 static void f_resume(void *m) { ((struct fake *)m)->held = 0; }
 static int f_reset(void *m)
 {
@@ -76,7 +77,8 @@ static void f_pos(void *m, pk_um_t out[3]) { memcpy(out, ((struct fake *)m)->pos
 static int f_state(void *m)
 {
     struct fake *f = m;
-    return f->held ? PK_GRBL_M_HOLD : f->qn ? PK_GRBL_M_RUN : PK_GRBL_M_IDLE;
+    return f->held == 2 ? PK_GRBL_M_HOLDING : f->held ? PK_GRBL_M_HOLD
+           : f->qn ? PK_GRBL_M_RUN : PK_GRBL_M_IDLE;
 }
 static uint32_t f_free(void *m) { struct fake *f = m; return (uint32_t)(f->room - f->qn); }
 static uint32_t f_total(void *m) { return (uint32_t)((struct fake *)m)->room; }
@@ -96,6 +98,8 @@ static const struct pk_grbl_machine_ops fake_ops = {
 /* Execute one queued request (unless held). */
 static void f_step(struct fake *f)
 {
+    if (f->held == 2)
+        f->held = 1;
     if (f->held || f->qn == 0)
         return;
     struct req r = f->q[0];
@@ -301,6 +305,10 @@ static void test_hold_and_resume_act_at_once_even_mid_line(void)
     rxs("G1 X!7");     /* '!' inside a line that is still being typed */
     poll_n(1, 0);
     TH_EXPECT(R.f.held);
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strstr(R.out, "<Hold:1|") != NULL); /* still decelerating */
+    poll_n(1, 1);
     rxs("?");
     poll_n(2, 1);
     TH_EXPECT(strstr(R.out, "<Hold:0|") != NULL);
@@ -552,6 +560,20 @@ static void test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly(void)
     TH_EXPECT(cubic_end > 2);
 }
 
+static void test_g64_p_also_sets_how_finely_g5_curves_are_flattened(void)
+{
+    int n[2];
+    for (int k = 0; k < 2; k++) {
+        rig_init(64);
+        poll_n(2, 0);
+        rxs(k == 0 ? "G64 P0.1\n" : "G64 P0.001\n");
+        rxs("G0 X10 Y10\nG5 X60 Y10 I0 J40 P0 Q40 F2000\n");
+        poll_n(200, 1);
+        n[k] = R.f.logn;
+    }
+    TH_EXPECT(n[1] > 4 * n[0]); /* 100x tighter: about 10x more chords */
+}
+
 static void test_offsets_show_in_status_and_g_state(void)
 {
     rig_init(8);
@@ -577,6 +599,126 @@ static void test_offsets_show_in_status_and_g_state(void)
     }
 }
 
+static void test_jog_moves_without_touching_modal_state_and_cancels_cleanly(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    R.outn = 0;
+    rxs("G91\n$J=G90 G21 X10 Y5 F1000\n$J=X1 F500\n$J=G91 X-2 F500\n");
+    poll_n(3, 0);
+    int c[16];
+    TH_ASSERT_EQ(answers(c, 16), 4);
+    TH_EXPECT(c[0] == 0 && c[1] == 0 && c[2] == 0 && c[3] == 0);
+    TH_ASSERT_EQ(R.f.logn, 3);
+    TH_EXPECT(R.f.log[0].p[0] == 10000 && R.f.log[0].p[1] == 5000 && R.f.log[0].arg == 1000000);
+    /* "$J=X1" with the program in G91: jogs default to the modal distance mode. */
+    TH_EXPECT_EQ(R.f.log[1].p[0], 11000);
+    TH_EXPECT_EQ(R.f.log[2].p[0], 9000);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strncmp(R.out, "<Jog|", 5) == 0);
+    /* G-code is locked while jogging; bad jogs get their errors. */
+    rxs("G0 X1\n$J=X1\n$J=G1 X1 F10\n$J=X1 M3 F10\n$J=X400 F10\n$J=F10\n");
+    poll_n(4, 0);
+    TH_ASSERT_EQ(answers(c, 16), 6);
+    TH_EXPECT_EQ(c[0], 9);
+    TH_EXPECT_EQ(c[1], 22);
+    TH_EXPECT_EQ(c[2], 16);
+    TH_EXPECT_EQ(c[3], 16);
+    TH_EXPECT_EQ(c[4], 15);
+    TH_EXPECT_EQ(c[5], 26);
+    /* Jog cancel: a controlled stop (hold), then the rest is flushed. */
+    rxs("\x85");
+    poll_n(3, 0);
+    TH_EXPECT_EQ(R.f.held, 2);
+    TH_EXPECT_EQ(R.f.resets, 0); /* never cut while still decelerating */
+    poll_n(2, 1);
+    TH_EXPECT_EQ(R.f.qn, 0);
+    TH_EXPECT_EQ(R.f.resets, 1);
+    R.outn = 0;
+    rxs("?");
+    poll_n(1, 0);
+    TH_EXPECT(strncmp(R.out, "<Idle|", 6) == 0);
+    TH_EXPECT(strstr(R.out, "ALARM") == NULL);
+    /* The program's modes survived: still G91, so X1 is relative. */
+    rxs("G0 X1\n");
+    poll_n(2, 0);
+    TH_EXPECT_EQ(R.f.log[R.f.logn - 1].p[0], R.f.pos[0] + 1000);
+}
+
+/* Property: whatever bytes arrive (short of a soft reset), every line end
+ * gets exactly one answer, and the engine never stalls for good. */
+static void test_random_traffic_gets_exactly_one_answer_per_line(void)
+{
+    static const char alpha[] = "GMXYZFNPQIJST0123456789.-+ ()%;/$=\r\n\n?!~\x01\xff\x80G1X";
+    static char stream[200000];
+    uint64_t seed = 0x1234567u;
+    for (int round = 0; round < 20; round++) {
+        rig_init(1 + round % 6);
+        poll_n(2, 0);
+        size_t n = 0;
+        for (; n < 8000; n++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            stream[n] = alpha[(seed >> 33) % (sizeof alpha - 1)];
+        }
+        stream[n++] = '~';
+        stream[n++] = '\n';
+        /* Expected answers: line ends once realtime bytes are taken out. */
+        int expect = 0;
+        char prev = 0;
+        for (size_t i = 0; i < n; i++) {
+            char c = stream[i];
+            if (c == '?' || c == '!' || c == '~')
+                continue;
+            if (c == '\r' || (c == '\n' && prev != '\r'))
+                expect++;
+            prev = c;
+        }
+        R.outn = 0;
+        size_t off = 0;
+        for (int spins = 0; spins < 200000 && off < n; spins++) {
+            off += rx(stream + off, n - off);
+            poll_n(1, 1);
+            if (spins % 50 == 0)
+                rx("~", 1); /* keep feed holds from parking the run forever */
+        }
+        TH_ASSERT_EQ(off, n);
+        poll_n(2000, 1);
+        int codes[12000];
+        TH_ASSERT_EQ(answers(codes, 12000), expect);
+        TH_EXPECT_EQ(R.g.stats.lines, (uint32_t)expect);
+    }
+}
+
+static int fake_fault;
+static int f_state_faulty(void *m) { return fake_fault ? PK_GRBL_M_ALARM : f_state(m); }
+
+static void test_a_machine_fault_raises_alarm_1_and_locks_g_code(void)
+{
+    struct pk_grbl_machine_ops ops = fake_ops;
+    ops.state = f_state_faulty;
+    memset(&R, 0, sizeof R);
+    R.f.room = 8;
+    pk_uart_init(&R.u, pk_grbl_rt_filter, &R.g);
+    struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &R.u };
+    TH_ASSERT_EQ(pk_grbl_init(&R.g, &io, &ops, &R.f, NULL), 0);
+    fake_fault = 0;
+    poll_n(2, 0);
+    R.outn = 0;
+    fake_fault = 1;
+    rxs("G0 X1\n?");
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "ALARM:1\r\n") != NULL);
+    TH_EXPECT(strstr(R.out, "<Alarm|") != NULL);
+    TH_EXPECT(strstr(R.out, "error:9\r\n") != NULL);
+    TH_EXPECT_EQ(R.f.logn, 0);
+    fake_fault = 0; /* $X resets the machine and unlocks */
+    rxs("$X\nG0 X1\n");
+    poll_n(3, 0);
+    TH_EXPECT_EQ(R.f.logn, 1);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -596,6 +738,10 @@ int th_main(int argc, char **argv)
         TH_CASE(test_pen_dwell_smoothing_and_end_reach_the_machine_in_order),
         TH_CASE(test_a_g5_curve_streams_through_a_tiny_queue_and_ends_exactly),
         TH_CASE(test_offsets_show_in_status_and_g_state),
+        TH_CASE(test_g64_p_also_sets_how_finely_g5_curves_are_flattened),
+        TH_CASE(test_jog_moves_without_touching_modal_state_and_cancels_cleanly),
+        TH_CASE(test_a_machine_fault_raises_alarm_1_and_locks_g_code),
+        TH_CASE(test_random_traffic_gets_exactly_one_answer_per_line),
     };
     return th_run(cases, TH_COUNT(cases));
 }

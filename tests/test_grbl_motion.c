@@ -192,6 +192,53 @@ static void test_soft_reset_during_motion_leaves_no_queued_move(void)
     TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,2.000,0.000|", 29) == 0);
 }
 
+static void test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after(void)
+{
+    start();
+    send("$J=G91 X100 F1200\n");
+    step(1000); /* 0.5 s: about 10 mm into the jog */
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Jog|", 5) == 0);
+    outn = 0;
+    send("\x85");
+    int idle = 0;
+    for (int i = 0; i < 4000 && !idle; i++) {
+        step(1);
+        idle = machine_idle();
+    }
+    TH_ASSERT(idle);
+    TH_EXPECT(strstr(out, "ALARM") == NULL);
+    pk_um_t p[PK_AXES];
+    pk_machine_position_um(&S.m, p);
+    TH_EXPECT(p[0] > 5000 && p[0] < 50000); /* stopped well short of 100 mm */
+    send("G90 G0 X1 Y1\n");
+    TH_ASSERT(run_idle(30));
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:1.000,1.000,0.000|", 29) == 0);
+}
+
+static void test_a_steps_per_mm_change_keeps_the_step_position_like_grbl(void)
+{
+    start();
+    send("G0 X10 Y4\n");
+    TH_ASSERT(run_idle(30));
+    send("$100=2000\n");
+    TH_ASSERT(run_idle(5));
+    char st[256];
+    final_status(st, sizeof st);
+    /* 10000 steps at 2000 steps/mm: the same place, now reported as 5 mm. */
+    TH_EXPECT(strncmp(st, "<Idle|MPos:5.000,4.000,0.000|", 29) == 0);
+    outn = 0;
+    send("G1 X20 F600\n$100=1000\n");
+    TH_ASSERT(run_idle(30));
+    TH_EXPECT_EQ(count(out, "error:8"), 1); /* refused while the X20 move runs */
+    send("G91 G0 X1\n");
+    TH_ASSERT(run_idle(30));
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:21.000,4.000,0.000|", 30) == 0);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -200,6 +247,8 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_streamed_program_ends_exactly_where_it_was_sent),
         TH_CASE(test_hold_then_resume_mid_stroke_finishes_at_the_exact_end),
         TH_CASE(test_soft_reset_during_motion_leaves_no_queued_move),
+        TH_CASE(test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after),
+        TH_CASE(test_a_steps_per_mm_change_keeps_the_step_position_like_grbl),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_grbl_sim_free(&S);

@@ -114,6 +114,37 @@ static void test_straight_moves_end_exactly_at_the_commanded_step(void)
     }
 }
 
+static double worst_rate_ratio(const struct pk_rec *r, unsigned axis, double limit, unsigned k);
+
+static void test_three_axes_end_exactly_too(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    c.axes = 3;
+    c.steps_per_mm_q16[2] = spmm(400.0);
+    c.max_rate[2] = 600000;
+    c.accel[2] = 200000;
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_op ops[3];
+    ops[0] = feed(3000, 4000, 3000000);
+    ops[0].p[2] = -1500;
+    ops[1] = feed(-2000, 1000, 3000000);
+    ops[1].p[2] = 2345;
+    ops[2] = op_of(MR_RAPID, 0);
+    ops[2].p[0] = 10;
+    ops[2].p[1] = 20;
+    ops[2].p[2] = 30;
+    struct pk_mrun_result res = pk_mrun(&M, &R, ops, 3, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    for (unsigned i = 0; i < 3; i++) {
+        TH_EXPECT_EQ(p[i], oracle_steps(ops[2].p[i], c.steps_per_mm_q16[i]));
+        TH_EXPECT_EQ(edge_sum(&R, i, NULL), p[i]);
+    }
+    /* Z never ran faster than its own max rate (10 mm/s at 400 steps/mm) */
+    TH_EXPECT(worst_rate_ratio(&R, 2, 10.0 * 400.0, 16) <= 1.0);
+}
+
 static size_t arc_ops(struct pk_mrun_op *ops, unsigned nseg, double r_um, double turns, uint32_t f)
 {
     /* circle through the origin, centre (r, 0), starting at angle pi */
@@ -410,6 +441,23 @@ static void test_a_long_full_queue_changes_nothing_in_the_output(void)
     TH_EXPECT_EQ(diff, 0);
 }
 
+static void test_a_late_main_loop_delays_steps_but_loses_none(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    static struct pk_mrun_op ops[200];
+    size_t n = arc_ops(ops, 120, 10000.0, 0.9, 6000000);
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_opts late = { .poll_ticks = 80000 }; /* 80 ms between polls */
+    struct pk_mrun_result res = pk_mrun(&M, &R, ops, n, &late);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    for (int i = 0; i < 2; i++) {
+        TH_EXPECT_EQ(p[i], oracle_steps(ops[n - 1].p[i], c.steps_per_mm_q16[i]));
+        TH_EXPECT_EQ(edge_sum(&R, (unsigned)i, NULL), p[i]);
+    }
+}
+
 static void test_two_machines_side_by_side_do_not_share_state(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -557,6 +605,46 @@ static void test_a_full_request_fifo_refuses_without_losing_anything(void)
     TH_EXPECT_EQ(s[0], oracle_steps((pk_um_t)(1000 * PK_MACHINE_INQ), c.steps_per_mm_q16[0]));
 }
 
+static void test_new_settings_keep_the_step_position(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_op op = feed(10000, -5000, 3000000);
+    struct pk_mrun_result res = pk_mrun(&M, &R, &op, 1, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    long y0 = oracle_steps(-5000, c.steps_per_mm_q16[1]);
+    /* refused while moving, and for a bad value, without side effects */
+    pk_um_t far[PK_AXES] = { 50000, 0 };
+    TH_ASSERT_EQ(pk_machine_move(&M, far, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    pk_machine_poll(&M);
+    struct pk_motion_cfg c2 = c;
+    c2.steps_per_mm_q16[0] = spmm(160.0);
+    TH_EXPECT_EQ(pk_machine_configure(&M, &c2), PK_MOTION_EBUSY);
+    TH_EXPECT(pk_machine_reset(&M));
+    pk_machine_position_steps(&M, p);
+    long x_now = p[0];
+    struct pk_motion_cfg bad = c2;
+    bad.accel[0] = 0;
+    TH_EXPECT_EQ(pk_machine_configure(&M, &bad), PK_MOTION_EINVAL);
+    TH_ASSERT_EQ(pk_machine_configure(&M, &c2), PK_MOTION_OK);
+    pk_machine_position_steps(&M, p);
+    TH_EXPECT_EQ(p[0], x_now);
+    TH_EXPECT_EQ(p[1], y0);
+    pk_um_t um[PK_AXES];
+    pk_machine_position_um(&M, um);
+    TH_EXPECT_EQ(um[0], lround(x_now * 1000.0 / 160.0));
+    /* and the next move lands on the new scale exactly */
+    op = feed(10000, 0, 3000000);
+    res = pk_mrun(&M, &R, &op, 1, NULL);
+    TH_ASSERT(!res.timed_out);
+    pk_machine_position_steps(&M, p);
+    TH_EXPECT_EQ(p[0], 1600);
+    TH_EXPECT_EQ(p[1], 0);
+    TH_EXPECT_EQ(edge_sum(&R, 0, NULL), 1600);
+}
+
 static void test_pen_changes_switch_the_tool_output_at_a_standstill(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -593,6 +681,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_straight_moves_end_exactly_at_the_commanded_step),
         TH_CASE(test_polyline_arc_ends_exactly_and_emits_no_extra_steps),
+        TH_CASE(test_three_axes_end_exactly_too),
         TH_CASE(test_axis_speeds_never_exceed_their_max_rate_or_the_feed),
         TH_CASE(test_acceleration_between_step_intervals_stays_within_the_limit),
         TH_CASE(test_junction_speed_limit_matches_the_junction_deviation_formula),
@@ -601,12 +690,14 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_failing_step_write_stops_with_an_alarm_and_the_position_counts_real_pulses),
         TH_CASE(test_a_failing_direction_write_stops_before_any_step_in_the_wrong_direction),
         TH_CASE(test_a_long_full_queue_changes_nothing_in_the_output),
+        TH_CASE(test_a_late_main_loop_delays_steps_but_loses_none),
         TH_CASE(test_two_machines_side_by_side_do_not_share_state),
         TH_CASE(test_feed_hold_decelerates_within_the_limit_and_resume_finishes_exactly),
         TH_CASE(test_hold_reports_holding_then_hold_and_keeps_the_position),
         TH_CASE(test_reset_mid_move_reports_the_interruption_and_keeps_the_real_position),
         TH_CASE(test_a_full_request_fifo_refuses_without_losing_anything),
         TH_CASE(test_pen_changes_switch_the_tool_output_at_a_standstill),
+        TH_CASE(test_new_settings_keep_the_step_position),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);

@@ -395,6 +395,61 @@ static void test_smoothed_strokes_end_exactly_at_the_commanded_step(void)
     }
 }
 
+/* Path speed from the step trace: positions (µm) sampled every W ticks by
+ * counting edges; over a window the distance is known to within one step
+ * per axis at each end, so speed <= F + 2*sqrt(2)*step/W. */
+static double worst_path_speed_ratio(const struct pk_rec *r, double f_mm_s, double step_um, uint64_t W)
+{
+    uint64_t *t[2];
+    int8_t *d[2];
+    size_t n[2];
+    for (unsigned a = 0; a < 2; a++)
+        n[a] = pk_mrun_edges(r, a, &t[a], &d[a]);
+    uint64_t end = 0;
+    for (unsigned a = 0; a < 2; a++)
+        if (n[a] && t[a][n[a] - 1] > end)
+            end = t[a][n[a] - 1];
+    size_t idx[2] = { 0, 0 };
+    long pos[2] = { 0, 0 }, prev[2] = { 0, 0 };
+    double worst = 0, hz = r->hal.tick_hz;
+    for (uint64_t s = W; s <= end + W; s += W) {
+        for (unsigned a = 0; a < 2; a++)
+            while (idx[a] < n[a] && t[a][idx[a]] < s)
+                pos[a] += d[a][idx[a]++];
+        double dist = hypot((double)(pos[0] - prev[0]), (double)(pos[1] - prev[1])) * step_um;
+        double v = dist / 1000.0 / ((double)W / hz);
+        double allowed = f_mm_s + 2.0 * sqrt(2.0) * step_um / 1000.0 / ((double)W / hz);
+        if (v / allowed > worst)
+            worst = v / allowed;
+        prev[0] = pos[0];
+        prev[1] = pos[1];
+    }
+    for (unsigned a = 0; a < 2; a++) {
+        free(t[a]);
+        free(d[a]);
+    }
+    return worst;
+}
+
+static void test_path_speed_on_arcs_and_smoothed_strokes_never_exceeds_the_feed(void)
+{
+    static const uint8_t modes[] = { PK_SMOOTH_OFF, PK_SMOOTH_FIXED, PK_SMOOTH_TOLERANCE };
+    static struct pk_mrun_op ops[300];
+    for (unsigned mi = 0; mi < 3; mi++) {
+        struct pk_motion_cfg c = mcfg(modes[mi]);
+        c.steps_per_mm_q16[1] = c.steps_per_mm_q16[0]; /* one step length for both */
+        pk_rec_free(&R);
+        pk_rec_init(&R, 1000000);
+        TH_ASSERT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
+        size_t n = circle_ops(ops, 200, 20000, 1.0);
+        struct pk_mrun_result res = pk_mrun(&M, &R, ops, n, NULL);
+        TH_ASSERT(!res.timed_out);
+        double w = worst_path_speed_ratio(&R, 50.0, 12.5, 10000); /* F3000 = 50 mm/s, 10 ms */
+        TH_EXPECT(w <= 1.0);
+        TH_EXPECT(w > 0.85); /* and it does run at the feed */
+    }
+}
+
 static void test_a_stroke_whose_sender_stops_midway_still_completes(void)
 {
     static const uint8_t modes[] = { PK_SMOOTH_OFF, PK_SMOOTH_FIXED, PK_SMOOTH_TOLERANCE };
@@ -454,6 +509,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_straight_stretches_collapse_to_few_segments),
         TH_CASE(test_sharp_corners_are_kept_exactly),
         TH_CASE(test_smoothed_strokes_end_exactly_at_the_commanded_step),
+        TH_CASE(test_path_speed_on_arcs_and_smoothed_strokes_never_exceeds_the_feed),
         TH_CASE(test_a_stroke_whose_sender_stops_midway_still_completes),
         TH_CASE(test_a_paused_kernel_behind_a_full_queue_changes_nothing_in_the_output),
     };

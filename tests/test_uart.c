@@ -173,6 +173,17 @@ static void test_a_pty_client_and_the_shim_exchange_bytes_both_ways(void)
     /* The client leaves; the server side keeps working (no EIO busy loop). */
     close(c);
     TH_EXPECT_EQ(pk_serial_pump(&s, &u), 0);
+    /* Answers written while nobody listens wait in the pty; they can be
+     * discarded so that the next client does not read stale lines. */
+    TH_EXPECT_EQ(pk_serial_unread(&s), 0);
+    pk_uart_write(&u, (const uint8_t *)"ok\r\n", 4);
+    TH_ASSERT_EQ(pk_serial_pump(&s, &u), 0);
+    /* The tty layer hands the bytes to the slave side asynchronously. */
+    for (int spins = 0; spins < 200 && pk_serial_unread(&s) < 4; spins++)
+        wait_readable(s.slave_fd, 5);
+    TH_EXPECT_EQ(pk_serial_unread(&s), 4);
+    pk_serial_discard_unread(&s);
+    TH_EXPECT_EQ(pk_serial_unread(&s), 0);
     pk_serial_close(&s);
     TH_EXPECT(access(link, F_OK) != 0);
 }

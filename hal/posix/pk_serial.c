@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -175,6 +176,20 @@ int pk_serial_pump(struct pk_serial *s, struct pk_uart *u)
             break;
     }
     return 0;
+}
+
+size_t pk_serial_unread(const struct pk_serial *s)
+{
+    int n = 0;
+    if (s->slave_fd < 0 || ioctl(s->slave_fd, FIONREAD, &n) != 0 || n < 0)
+        return 0;
+    return (size_t)n;
+}
+
+void pk_serial_discard_unread(struct pk_serial *s)
+{
+    if (s->slave_fd >= 0)
+        tcflush(s->slave_fd, TCIFLUSH);
 }
 
 void pk_serial_close(struct pk_serial *s)

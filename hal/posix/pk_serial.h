@@ -53,6 +53,16 @@ int pk_serial_open_pty(struct pk_serial *s, const char *link);
  */
 int pk_serial_pump(struct pk_serial *s, struct pk_uart *u);
 
+/**
+ * pty only: bytes we wrote that no client has read yet (the slave's input
+ * queue), or 0 for a device / on error.
+ */
+size_t pk_serial_unread(const struct pk_serial *s);
+
+/** pty only: discard those bytes (e.g. answers queued while no client was
+ *  connected, which a new client must not receive). */
+void pk_serial_discard_unread(struct pk_serial *s);
+
 /** Close the fds and remove the symlink. Safe to call twice. */
 void pk_serial_close(struct pk_serial *s);
 
