@@ -102,10 +102,11 @@ test: deps
 	@$(MAKE) --no-print-directory test-build
 	@bash tests/run_tests.sh $(BUILD) $(SAN)
 
-EXAMPLE_IN ?= host-sim/examples/spiral.txt
+EXAMPLE_IN ?= host-sim/examples/flower.gcode
 example: deps $(BUILD)/plotkin
-	$(BUILD)/plotkin refine --scheme chaikin --depth 4 --svg $(BUILD)/example.svg < $(EXAMPLE_IN) > $(BUILD)/example.out
-	@echo "wrote $(BUILD)/example.svg (input grey, smoothed output black) and $(BUILD)/example.out"
+	$(BUILD)/plotkin sim $(EXAMPLE_IN) --tolerance 0.02 --svg $(BUILD)/example.svg > $(BUILD)/example.out; \
+	  rc=$$?; cat $(BUILD)/example.out; exit $$rc
+	@echo "wrote $(BUILD)/example.svg (commanded path light, executed path from the decoded step pulses dark) and $(BUILD)/example.out"
 
 clean:
 	rm -rf $(BUILD)

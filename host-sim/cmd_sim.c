@@ -36,6 +36,12 @@ static const char sim_usage[] =
     "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
+    "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
+    "                   request), set:N (the Nth write) - to see how the firmware copes\n"
+    "\n"
+    "Speeds and accelerations are estimated per axis from the decoded step times\n"
+    "over runs of 16 steps (cornering shows as acceleration, as on the machine).\n"
+    "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
     "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
     "setup failure; 2 bad usage.\n";
@@ -256,7 +262,7 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
             fmin(w, 300.0), fmin(w, 300.0) * h / w, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
     fprintf(f, "<title>%s</title>\n<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n",
             title, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
-    /* commanded path: pen-down feed moves solid, the rest dashed */
+    /* commanded path: pen-up moves dashed (drawn first, underneath), pen-down solid */
     fprintf(f, "<g fill=\"none\" stroke=\"#8ab4f8\" stroke-width=\"%.3f\" stroke-linecap=\"round\" "
                "stroke-linejoin=\"round\">\n", 3 * sw);
     for (int pass = 0; pass < 2; pass++) {
@@ -264,14 +270,15 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
         for (size_t i = 0; i < j->n_moves; i++) {
             const struct pk_sim_move *mv = &j->moves[i];
             int down = mv->pen && !mv->rapid;
-            if (down != (pass == 0)) {
+            if (down != (pass == 1)) {
                 if (open)
                     fputs("\"/>\n", f);
                 open = 0;
                 continue;
             }
             if (!open) {
-                fprintf(f, "<path %sd=\"M%.3f %.3f", pass ? "stroke-dasharray=\"4 3\" stroke-width=\"1\" " : "",
+                fprintf(f, "<path %sd=\"M%.3f %.3f",
+                        pass ? "" : "stroke=\"#c6dafc\" stroke-dasharray=\"4 3\" stroke-width=\"1\" ",
                         mv->a[0] / 1000.0, -mv->a[1] / 1000.0);
                 open = 1;
             }
@@ -281,36 +288,29 @@ static int write_svg(const char *path, const struct pk_sim_result *r, const char
             fputs("\"/>\n", f);
     }
     fputs("</g>\n", f);
-    /* executed path from the decoded steps */
+    /* executed path from the decoded steps (thinned to 0.1 mm): pen up
+     * dotted and underneath, then pen down */
     fprintf(f, "<g fill=\"none\" stroke=\"#202124\" stroke-width=\"%.3f\" stroke-linejoin=\"round\">\n", sw);
-    int64_t p[PK_HAL_MAX_AXES] = { 0 };
-    double lx = 0, ly = 0;
-    int open = 0, pen = -1;
-    for (size_t i = 0; i <= r->dec.n_ev; i++) {
-        int last = i == r->dec.n_ev;
-        int pd = last ? pen : r->dec.ev[i].pen;
-        if (!last)
-            p[r->dec.ev[i].axis] += r->dec.ev[i].dir;
-        double x = pk_sim_steps_to_um(r, 0, p[0]) / 1000.0, y = pk_sim_steps_to_um(r, 1, p[1]) / 1000.0;
-        if (pd != pen || last) {
-            if (open)
-                fprintf(f, " L%.3f %.3f\"/>\n", x, -y);
-            open = 0;
-            pen = pd;
-        }
-        if (last)
-            break;
-        if (!open) {
-            fprintf(f, "<path %sd=\"M%.3f %.3f",
-                    pen ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ", x, -y);
+    for (int pass = 0; pass < 2; pass++) {
+        int open = 0;
+        for (size_t i = 0; i < r->n_path; i++) {
+            const struct pk_sim_path_pt *pt = &r->path[i];
+            if (pt->pen != pass) {
+                if (open)
+                    fputs("\"/>\n", f);
+                open = 0;
+                continue;
+            }
+            if (!open)
+                fprintf(f, "<path %sd=\"M%.3f %.3f",
+                        pass ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ",
+                        pt->x_um / 1000.0, -pt->y_um / 1000.0);
+            else
+                fprintf(f, " L%.3f %.3f", pt->x_um / 1000.0, -pt->y_um / 1000.0);
             open = 1;
-            lx = x;
-            ly = y;
-        } else if (hypot(x - lx, y - ly) >= 0.1) {
-            fprintf(f, " L%.3f %.3f", x, -y);
-            lx = x;
-            ly = y;
         }
+        if (open)
+            fputs("\"/>\n", f);
     }
     fputs("</g>\n", f);
     fprintf(f, "<text x=\"%.3f\" y=\"%.3f\" font-family=\"sans-serif\" font-size=\"%.3f\" fill=\"#5f6368\">"
@@ -325,7 +325,8 @@ int cmd_sim(int argc, char **argv)
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
     int json = 0, exact = 0;
     double tol = -1.0, feed = -1.0;
-    int axes_opt = 0;
+    int axes_opt = 0, use_fault = 0;
+    static struct pk_gpiod_mock fault;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int more = i + 1 < argc;
@@ -348,6 +349,19 @@ int cmd_sim(int argc, char **argv)
             tol = strtod(argv[++i], NULL);
         } else if (!strcmp(a, "--feed") && more) {
             feed = strtod(argv[++i], NULL);
+        } else if (!strcmp(a, "--inject") && more) {
+            const char *v = argv[++i];
+            if (!strcmp(v, "open"))
+                fault.fail_open_errno = ENODEV;
+            else if (!strncmp(v, "request:", 8) && atoi(v + 8) > 0)
+                fault.fail_request_nth = (uint32_t)atoi(v + 8);
+            else if (!strncmp(v, "set:", 4) && atoi(v + 4) > 0)
+                fault.fail_set_nth = (uint32_t)atoi(v + 4);
+            else {
+                fprintf(stderr, "plotkin sim: --inject takes open, request:N or set:N\n");
+                return 2;
+            }
+            use_fault = 1;
         } else if (!strcmp(a, "--axes") && more) {
             axes_opt = atoi(argv[++i]);
         } else if (a[0] == '-' && a[1] != '\0') {
@@ -422,6 +436,18 @@ int cmd_sim(int argc, char **argv)
     static struct pk_sim_result r;
     struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program = text, .len = len,
                              .lim = lim, .progress = isatty(2) ? stderr : NULL };
+    if (use_fault)
+        o.fault = &fault;
+    FILE *tf = NULL;
+    if (trace != NULL) {
+        tf = fopen(trace, "w");
+        if (tf == NULL) {
+            fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
+            free(text);
+            return 2;
+        }
+        o.trace_csv = tf;
+    }
     int rc = pk_sim_run(&o, &r);
     int status = 0;
     if (rc != 0) {
@@ -438,16 +464,16 @@ int cmd_sim(int argc, char **argv)
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", svg, strerror(errno));
             status = 1;
         }
-        if (trace != NULL) {
-            FILE *f = fopen(trace, "w");
-            if (f == NULL || pk_trace_write_csv(&r.hw.trace, f, 1) != 0 || fclose(f) != 0) {
-                fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
-                status = 1;
-            }
+        if (tf != NULL && (ferror(tf) || fclose(tf) != 0)) {
+            fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
+            status = 1;
         }
+        tf = NULL;
         if (r.job.alarms || r.job.errors || r.dec.n_viol || r.run_status != PK_SIM_RUN_FINISHED)
             status = status ? status : 1;
     }
+    if (tf != NULL)
+        fclose(tf);
     pk_sim_result_free(&r);
     free(text);
     return status;

@@ -443,7 +443,8 @@ int pk_sim_job_main(void *arg, uint64_t now)
         return -1;
     }
     feed(j);
-    /* Count the blocks this poll queues: they are appended at the ring's
+    /* Host-side peek into the machine's motion queue (read only; the
+     * firmware API has no block counter): count the blocks this poll queues: they are appended at the ring's
      * head, so the new ones sit between the old head and the new head. */
     uint32_t head0 = (uint32_t)(m->mq.tail + m->mq.count) % PK_MQ_CAP;
     uint32_t tail0 = m->mq.tail, count0 = m->mq.count;
@@ -459,7 +460,8 @@ int pk_sim_job_main(void *arg, uint64_t now)
     }
     if (j->progress != NULL && now >= j->next_progress_tick) {
         j->next_progress_tick = now + (uint64_t)j->cfg->tick_hz * 2u;
-        fprintf(j->progress, "\rplotkin sim: line %lu, %.1f s simulated ", j->lines,
+        fprintf(j->progress, "\rplotkin sim: line %lu (%.0f%% of the file read), %.1f s simulated ",
+                j->lines, j->len ? 100.0 * (double)j->pos / (double)j->len : 100.0,
                 (double)now / (double)j->cfg->tick_hz);
         fflush(j->progress);
     }
@@ -484,6 +486,39 @@ static double seg_dist(const struct pk_sim_move *mv, double px, double py)
     return sqrt(ex * ex + ey * ey);
 }
 
+double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y)
+{
+    if (j->n_moves == 0u)
+        return -1.0;
+    size_t c = *k < j->n_moves ? *k : j->n_moves - 1u;
+    size_t lo = c >= 64u ? c - 64u : 0u, hi = c + 64u < j->n_moves ? c + 64u : j->n_moves;
+    double best = INFINITY;
+    size_t bk = c;
+    for (size_t q = lo; q < hi; q++) {
+        double d = seg_dist(&j->moves[q], x, y);
+        if (d < best) {
+            best = d;
+            bk = q;
+        }
+    }
+    if (best > 2.0 && j->n_moves > hi) {
+        /* The move executing is never far behind the newest one requested
+         * (the request FIFO, the kernel and the motion queue hold a bounded
+         * number of moves): look there too, in case the window was lured
+         * away by a crossing move. */
+        size_t q0 = j->n_moves > 256u ? j->n_moves - 256u : 0u;
+        for (size_t q = q0 > hi ? q0 : hi; q < j->n_moves; q++) {
+            double d = seg_dist(&j->moves[q], x, y);
+            if (d < best) {
+                best = d;
+                bk = q;
+            }
+        }
+    }
+    *k = bk;
+    return best;
+}
+
 double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y, size_t n)
 {
     if (j->n_moves == 0u)
@@ -491,28 +526,9 @@ double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, cons
     size_t k = 0;
     double worst = 0.0;
     for (size_t i = 0; i < n; i++) {
-        size_t lo = k >= 64u ? k - 64u : 0u, hi = k + 64u < j->n_moves ? k + 64u : j->n_moves;
-        double best = INFINITY;
-        size_t bk = k;
-        for (size_t q = lo; q < hi; q++) {
-            double d = seg_dist(&j->moves[q], x[i], y[i]);
-            if (d < best) {
-                best = d;
-                bk = q;
-            }
-        }
-        if (best > 2.0) { /* maybe a closer move outside the window: search all */
-            for (size_t q = 0; q < j->n_moves; q++) {
-                double d = seg_dist(&j->moves[q], x[i], y[i]);
-                if (d < best) {
-                    best = d;
-                    bk = q;
-                }
-            }
-        }
-        k = bk;
-        if (best > worst)
-            worst = best;
+        double d = pk_sim_job_point_deviation(j, &k, x[i], y[i]);
+        if (d > worst)
+            worst = d;
     }
     return worst;
 }

@@ -130,4 +130,8 @@ void pk_sim_job_free(struct pk_sim_job *j);
 double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y,
                                size_t n);
 
+/** One point of the same measure, streaming: *k carries the last match
+ *  (start at 0). Returns the distance in µm, or -1 if there are no moves. */
+double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y);
+
 #endif

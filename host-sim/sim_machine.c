@@ -26,11 +26,23 @@ void pk_sim_default_board(struct pk_gpiod_cfg *cfg, const char *chip_name, unsig
 int pk_sim_hw_open(struct pk_sim_hw *w, const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
                    uint32_t main_period, const struct pk_gpiod_mock *fault, char *err, size_t errlen)
 {
+    return pk_sim_hw_open_traced(w, cfg, tick_hz, main_period, fault, NULL, err, errlen);
+}
+
+int pk_sim_hw_open_traced(struct pk_sim_hw *w, const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
+                          uint32_t main_period, const struct pk_gpiod_mock *fault,
+                          const struct pk_trace *tpl, char *err, size_t errlen)
+{
     memset(w, 0, sizeof *w);
     pk_sim_sched_init(&w->sched, tick_hz, main_period);
     pk_sim_sched_hal(&w->sched, &w->base);
     pk_trace_init(&w->trace, tick_hz);
     pk_trace_map_gpiod(&w->trace, cfg);
+    if (tpl != NULL) {
+        w->trace.keep = tpl->keep;
+        w->trace.on_edge = tpl->on_edge;
+        w->trace.on_edge_arg = tpl->on_edge_arg;
+    }
 
     const char *name = strncmp(cfg->chip, "/dev/", 5) == 0 ? cfg->chip + 5 : cfg->chip;
     pk_gpiod_mock_init(&w->chip, name, 32);
@@ -71,16 +83,24 @@ void pk_sim_hw_close(struct pk_sim_hw *w)
     pk_trace_free(&w->trace);
 }
 
+void pk_sim_board_decode_cfg(const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
+                             const struct pk_timing_limits *lim, struct pk_decode_cfg *out)
+{
+    uint32_t axes = ((uint32_t)1 << cfg->axes) - 1u;
+    memset(out, 0, sizeof *out);
+    out->tick_hz = tick_hz;
+    out->axes = cfg->axes;
+    out->step_invert = cfg->step_invert & axes;
+    out->dir_invert = cfg->dir_invert & axes;
+    /* the trace records a shared enable line as axis 0 */
+    out->enable_invert = cfg->enable_invert & axes;
+    out->pen_invert = cfg->pen_invert & 1u;
+    out->shared_enable = cfg->enables == 1u;
+    out->lim = *lim;
+}
+
 void pk_sim_hw_decode_cfg(const struct pk_sim_hw *w, const struct pk_timing_limits *lim,
                           struct pk_decode_cfg *out)
 {
-    memset(out, 0, sizeof *out);
-    out->tick_hz = w->sched.tick_hz;
-    out->axes = w->gpio.cfg.axes;
-    out->step_invert = w->hal.step_invert;
-    out->dir_invert = w->hal.dir_invert;
-    out->enable_invert = w->hal.enable_invert;
-    out->pen_invert = w->hal.tool_invert;
-    out->shared_enable = w->gpio.cfg.enables == 1u;
-    out->lim = *lim;
+    pk_sim_board_decode_cfg(&w->gpio.cfg, w->sched.tick_hz, lim, out);
 }

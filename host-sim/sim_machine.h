@@ -47,6 +47,20 @@ void pk_sim_default_board(struct pk_gpiod_cfg *cfg, const char *chip_name, unsig
 int pk_sim_hw_open(struct pk_sim_hw *w, const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
                    uint32_t main_period, const struct pk_gpiod_mock *fault, char *err, size_t errlen);
 
+/**
+ * The same with the trace's consumers set before the lines are requested (so
+ * a streaming consumer sees the initial levels too): keep, on_edge and
+ * on_edge_arg are copied from *tpl.
+ */
+int pk_sim_hw_open_traced(struct pk_sim_hw *w, const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
+                          uint32_t main_period, const struct pk_gpiod_mock *fault,
+                          const struct pk_trace *tpl, char *err, size_t errlen);
+
+/** Decoder configuration for a board's wiring and polarity (as pk_gpiod_open
+ *  sets up struct pk_hal), usable before the board is opened. */
+void pk_sim_board_decode_cfg(const struct pk_gpiod_cfg *cfg, uint32_t tick_hz,
+                             const struct pk_timing_limits *lim, struct pk_decode_cfg *out);
+
 /** Close the backend (releases every line), unregister the chip, free the trace. */
 void pk_sim_hw_close(struct pk_sim_hw *w);
 

@@ -11,22 +11,91 @@ double pk_sim_steps_to_um(const struct pk_sim_result *r, unsigned a, int64_t ste
     return (double)steps * 1000.0 * 65536.0 / (double)r->mcfg.steps_per_mm_q16[a];
 }
 
+static void path_add(struct pk_sim_result *r, double x, double y, int pen)
+{
+    if (r->n_path == r->cap_path) {
+        size_t cap = r->cap_path ? r->cap_path * 2u : 4096u;
+        struct pk_sim_path_pt *p = realloc(r->path, cap * sizeof *p);
+        if (p == NULL)
+            return;
+        r->path = p;
+        r->cap_path = cap;
+    }
+    r->path[r->n_path++] = (struct pk_sim_path_pt){ x, y, (uint8_t)pen };
+}
+
+/* Every decoded step: speeds, path deviation, the thinned path. */
+static void on_step(void *arg, const struct pk_step_event *ev)
+{
+    struct pk_sim_result *r = arg;
+    if (ev->axis < PK_AXES)
+        pk_rate_step(&r->rate[ev->axis], ev->t, ev->dir);
+    r->pos[ev->axis] += ev->dir;
+    double x = pk_sim_steps_to_um(r, 0, r->pos[0]), y = pk_sim_steps_to_um(r, 1, r->pos[1]);
+    double d = pk_sim_job_point_deviation(&r->job, &r->dev_k, x, y);
+    if (d > r->deviation_um)
+        r->deviation_um = d;
+    if (ev->pen != r->last_pen) {
+        if (r->n_path > 0u)
+            path_add(r, r->last_x, r->last_y, r->last_pen);
+        path_add(r, r->last_x, r->last_y, ev->pen);
+        r->last_pen = ev->pen;
+    }
+    if (r->n_path == 0u) {
+        path_add(r, r->last_x, r->last_y, ev->pen);
+    } else {
+        const struct pk_sim_path_pt *lp = &r->path[r->n_path - 1u];
+        if (hypot(x - lp->x_um, y - lp->y_um) >= 100.0)
+            path_add(r, x, y, ev->pen);
+    }
+    r->last_x = x;
+    r->last_y = y;
+}
+
+/* Every pin edge: decoder, and the CSV file if asked. */
+static void on_edge(void *arg, const struct pk_trace_edge *e)
+{
+    struct pk_sim_result *r = arg;
+    (void)pk_decoder_push(&r->decoder, e);
+    if (r->opts.trace_csv != NULL)
+        pk_trace_csv_row(r->opts.trace_csv, e, r->opts.cfg->tick_hz, r->shared_enable);
+}
+
 int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
 {
-    struct pk_gpiod_cfg board;
     const struct pk_sim_cfg *c = o->cfg;
 
     memset(r, 0, sizeof *r);
     r->deviation_um = -1.0;
+    r->last_pen = -1;
     r->opts = *o;
     if (pk_sim_cfg_motion(c, &r->mcfg, r->err, sizeof r->err) != 0) {
         r->setup_failed = 1;
         return -1;
     }
-    pk_sim_default_board(&board, o->chip, c->axes);
+    pk_sim_default_board(&r->board, o->chip, c->axes);
+    r->shared_enable = r->board.enables == 1u;
+
+    struct pk_decode_cfg dc;
+    pk_sim_board_decode_cfg(&r->board, c->tick_hz, &o->lim, &dc);
+    pk_decoder_init(&r->decoder, &dc, &r->dec, o->keep_events);
+    r->decoder.on_step = on_step;
+    r->decoder.on_step_arg = r;
+    unsigned win = o->rate_window ? o->rate_window : 16u;
+    for (unsigned a = 0; a < PK_AXES; a++)
+        pk_rate_init(&r->rate[a], c->tick_hz, win);
+    if (o->trace_csv != NULL)
+        pk_trace_csv_header(o->trace_csv, c->tick_hz);
+
+    struct pk_trace tpl;
+    memset(&tpl, 0, sizeof tpl);
+    tpl.keep = o->keep_trace;
+    tpl.on_edge = on_edge;
+    tpl.on_edge_arg = r;
     /* one main-loop pass every 100 µs of simulated time while running */
     uint32_t period = c->tick_hz / 10000u ? c->tick_hz / 10000u : 1u;
-    if (pk_sim_hw_open(&r->hw, &board, c->tick_hz, period, o->fault, r->err, sizeof r->err) != 0) {
+    if (pk_sim_hw_open_traced(&r->hw, &r->board, c->tick_hz, period, o->fault, &tpl, r->err,
+                              sizeof r->err) != 0) {
         r->setup_failed = 1;
         return -1;
     }
@@ -69,34 +138,16 @@ int pk_sim_finish(struct pk_sim_result *r)
         fputs("\r\033[K", r->opts.progress);
     r->ticks = r->hw.sched.now;
     pk_machine_position_steps(&r->m, r->fw_steps);
-
-    struct pk_decode_cfg dc;
-    pk_sim_hw_decode_cfg(&r->hw, &r->opts.lim, &dc);
-    if (pk_decode(&r->hw.trace, &dc, &r->dec) != 0) {
-        snprintf(r->err, sizeof r->err, "out of memory decoding the trace");
-        return -1;
-    }
-    unsigned win = r->opts.rate_window ? r->opts.rate_window : 16u;
+    if (r->n_path > 0u)
+        path_add(r, r->last_x, r->last_y, r->last_pen);
     for (unsigned a = 0; a < c->axes && a < PK_AXES; a++) {
-        double vs, as, spmm = (double)r->mcfg.steps_per_mm_q16[a] / 65536.0;
-        pk_decode_axis_rates(&r->dec, a, c->tick_hz, win, &vs, &as);
-        r->max_speed_mm_s[a] = vs / spmm;
-        r->max_accel_mm_s2[a] = as / spmm;
+        double spmm = (double)r->mcfg.steps_per_mm_q16[a] / 65536.0;
+        r->max_speed_mm_s[a] = r->rate[a].max_speed / spmm;
+        r->max_accel_mm_s2[a] = r->rate[a].max_accel / spmm;
     }
-    /* executed path: the position after every step */
-    if (r->dec.n_ev > 0u) {
-        double *x = malloc(r->dec.n_ev * sizeof *x), *y = malloc(r->dec.n_ev * sizeof *y);
-        if (x != NULL && y != NULL) {
-            int64_t p[PK_HAL_MAX_AXES] = { 0 };
-            for (size_t i = 0; i < r->dec.n_ev; i++) {
-                p[r->dec.ev[i].axis] += r->dec.ev[i].dir;
-                x[i] = pk_sim_steps_to_um(r, 0, p[0]);
-                y[i] = pk_sim_steps_to_um(r, 1, p[1]);
-            }
-            r->deviation_um = pk_sim_job_deviation_um(&r->job, x, y, r->dec.n_ev);
-        }
-        free(x);
-        free(y);
+    if (r->decoder.oom || r->hw.trace.oom) {
+        snprintf(r->err, sizeof r->err, "out of memory recording the run");
+        return -1;
     }
     return 0;
 }
@@ -112,7 +163,14 @@ int pk_sim_run(const struct pk_sim_opts *o, struct pk_sim_result *r)
 
 void pk_sim_result_free(struct pk_sim_result *r)
 {
+    /* Closing the hardware drives the lines idle: those edges are after the
+     * run, and the consumers (decoder, CSV file) may be gone by now. */
+    r->hw.trace.on_edge = NULL;
+    r->opts.trace_csv = NULL;
+    pk_sim_hw_close(&r->hw);
+    free(r->path);
+    r->path = NULL;
+    r->n_path = r->cap_path = 0;
     pk_decoded_free(&r->dec);
     pk_sim_job_free(&r->job);
-    pk_sim_hw_close(&r->hw);
 }

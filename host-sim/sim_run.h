@@ -7,6 +7,11 @@
  * Used by `plotkin sim` and by the end-to-end tests; everything lives in the
  * caller's struct pk_sim_result (plus heap arrays freed by
  * pk_sim_result_free), so several runs can coexist in one process.
+ *
+ * Memory stays bounded on long runs: the pin edges stream into the decoder
+ * (and to the CSV file, if asked) as they happen; speeds, accelerations and
+ * the path deviation are measured step by step; only a thinned copy of the
+ * executed path is kept for the SVG. Tests can ask to keep everything.
  */
 #ifndef PLOTKIN_SIM_RUN_H
 #define PLOTKIN_SIM_RUN_H
@@ -25,6 +30,15 @@ struct pk_sim_opts {
     uint64_t max_ticks;             /**< simulated time limit (0: 24 h) */
     FILE *progress;                 /**< progress lines, or NULL */
     unsigned rate_window;           /**< steps per speed estimate (0: 16) */
+    int keep_trace;                 /**< 1: keep every pin edge in hw.trace.e (tests) */
+    int keep_events;                /**< 1: keep every decoded step in dec.ev (tests) */
+    FILE *trace_csv;                /**< if not NULL: every pin edge as CSV, as it happens */
+};
+
+/** A point of the executed path kept for drawing (thinned to 0.1 mm). */
+struct pk_sim_path_pt {
+    double x_um, y_um;
+    uint8_t pen;
 };
 
 struct pk_sim_result {
@@ -32,8 +46,19 @@ struct pk_sim_result {
     struct pk_sim_hw hw;
     struct pk_machine m;
     struct pk_sim_job job;
-    struct pk_decoded dec;
+    struct pk_decoded dec;          /**< pins decoded as the run goes */
+    struct pk_decoder decoder;
+    struct pk_rate_est rate[PK_AXES];
     struct pk_motion_cfg mcfg;
+    struct pk_gpiod_cfg board;
+    int shared_enable;
+    /* executed path, measured as it is decoded */
+    int64_t pos[PK_HAL_MAX_AXES];
+    size_t dev_k;
+    struct pk_sim_path_pt *path;    /**< thinned executed path (heap) */
+    size_t n_path, cap_path;
+    double last_x, last_y;          /**< position before the latest step */
+    int last_pen;
     int setup_failed;               /**< 1: hardware/machine setup failed (see err) */
     char err[200];
     int run_status;                 /**< enum pk_sim_run_status; -1 while running */

@@ -12,6 +12,7 @@ void pk_trace_init(struct pk_trace *t, uint32_t tick_hz)
 {
     memset(t, 0, sizeof *t);
     t->tick_hz = tick_hz;
+    t->keep = 1;
     for (size_t i = 0; i < sizeof t->map / sizeof t->map[0]; i++)
         t->map[i] = -1;
 }
@@ -44,18 +45,26 @@ void pk_trace_free(struct pk_trace *t)
 int pk_trace_add(struct pk_trace *t, uint64_t tick, enum pk_sig_kind kind, unsigned axis,
                  int level, int initial)
 {
-    if (t->n == t->cap) {
+    const struct pk_trace_edge e = { tick, (uint8_t)kind, (uint8_t)axis, (uint8_t)(level != 0),
+                                     (uint8_t)(initial != 0) };
+    t->n++;
+    if (t->on_edge != NULL)
+        t->on_edge(t->on_edge_arg, &e);
+    if (!t->keep)
+        return 0;
+    size_t kept = t->n - 1u;
+    if (kept == t->cap) {
         size_t cap = t->cap ? t->cap * 2u : 4096u;
-        struct pk_trace_edge *e = realloc(t->e, cap * sizeof *e);
-        if (e == NULL) {
+        struct pk_trace_edge *p = realloc(t->e, cap * sizeof *p);
+        if (p == NULL) {
             t->oom = 1;
+            t->n--;
             return -1;
         }
-        t->e = e;
+        t->e = p;
         t->cap = cap;
     }
-    t->e[t->n++] = (struct pk_trace_edge){ tick, (uint8_t)kind, (uint8_t)axis, (uint8_t)(level != 0),
-                                            (uint8_t)(initial != 0) };
+    t->e[kept] = e;
     return 0;
 }
 
@@ -96,20 +105,28 @@ const char *pk_trace_signal_name(enum pk_sig_kind kind, unsigned axis, int share
     return buf;
 }
 
-int pk_trace_write_csv(const struct pk_trace *t, FILE *f, int shared_enable)
+void pk_trace_csv_header(FILE *f, uint32_t tick_hz)
+{
+    fprintf(f, "# plotkin pin trace, raw levels, tick_hz=%" PRIu32 "\n", tick_hz);
+    fputs("tick,time_s,signal,level,initial\n", f);
+}
+
+void pk_trace_csv_row(FILE *f, const struct pk_trace_edge *e, uint32_t tick_hz, int shared_enable)
 {
     char name[16];
-    fprintf(f, "# plotkin pin trace, raw levels, tick_hz=%" PRIu32 "\n", t->tick_hz);
-    fputs("tick,time_s,signal,level,initial\n", f);
-    for (size_t i = 0; i < t->n; i++) {
-        const struct pk_trace_edge *e = &t->e[i];
-        /* time_s printed from integers: exact and identical on every host */
-        uint64_t s = e->t / t->tick_hz, frac = e->t % t->tick_hz;
-        uint64_t ns = frac * 1000000000u / t->tick_hz;
-        fprintf(f, "%" PRIu64 ",%" PRIu64 ".%09" PRIu64 ",%s,%u,%u\n", e->t, s, ns,
-                pk_trace_signal_name((enum pk_sig_kind)e->kind, e->axis, shared_enable, name, sizeof name),
-                (unsigned)e->level, (unsigned)e->initial);
-    }
+    /* time_s printed from integers: exact and identical on every host */
+    uint64_t s = e->t / tick_hz, frac = e->t % tick_hz;
+    uint64_t ns = frac * 1000000000u / tick_hz;
+    fprintf(f, "%" PRIu64 ",%" PRIu64 ".%09" PRIu64 ",%s,%u,%u\n", e->t, s, ns,
+            pk_trace_signal_name((enum pk_sig_kind)e->kind, e->axis, shared_enable, name, sizeof name),
+            (unsigned)e->level, (unsigned)e->initial);
+}
+
+int pk_trace_write_csv(const struct pk_trace *t, FILE *f, int shared_enable)
+{
+    pk_trace_csv_header(f, t->tick_hz);
+    for (size_t i = 0; i < t->n && t->e != NULL; i++)
+        pk_trace_csv_row(f, &t->e[i], t->tick_hz, shared_enable);
     return ferror(f) ? -1 : 0;
 }
 
@@ -155,87 +172,115 @@ static int push_viol(struct pk_decoded *d, size_t *cap, struct pk_violation v)
 
 #define NEVER UINT64_MAX
 
-int pk_decode(const struct pk_trace *t, const struct pk_decode_cfg *cfg, struct pk_decoded *out)
+void pk_decoder_init(struct pk_decoder *d, const struct pk_decode_cfg *cfg, struct pk_decoded *out,
+                     int keep_events)
 {
-    /* Logical state per axis; "never" until the first change of each kind. */
-    uint8_t step[PK_HAL_MAX_AXES] = { 0 }, dir[PK_HAL_MAX_AXES] = { 0 }, en[PK_HAL_MAX_AXES];
-    uint64_t t_rise[PK_HAL_MAX_AXES], t_fall[PK_HAL_MAX_AXES], t_dir[PK_HAL_MAX_AXES];
-    uint8_t pen = 0;
-    const int shared_enable = cfg->shared_enable;
-    size_t cap_ev = 0, cap_viol = 0;
-
+    memset(d, 0, sizeof *d);
     memset(out, 0, sizeof *out);
+    d->cfg = *cfg;
+    d->out = out;
+    d->keep_events = keep_events;
     for (unsigned a = 0; a < PK_HAL_MAX_AXES; a++) {
-        t_rise[a] = t_fall[a] = t_dir[a] = NEVER;
-        en[a] = 1;
+        d->t_rise[a] = d->t_fall[a] = d->t_dir[a] = NEVER;
+        d->en[a] = 1;
     }
-    /* ns between two ticks, rounded down: a limit is met only if truly met. */
-    const uint64_t hz = cfg->tick_hz;
-#define NS(dt) ((uint64_t)(dt) * 1000000000u / hz)
+}
 
-    for (size_t i = 0; i < t->n; i++) {
-        const struct pk_trace_edge *e = &t->e[i];
-        unsigned a = e->axis < PK_HAL_MAX_AXES ? e->axis : 0u;
-        uint8_t lv;
-        out->t_last = e->t;
-        switch (e->kind) {
-        case PK_SIG_STEP:
-            lv = (uint8_t)(e->level ^ ((cfg->step_invert >> a) & 1u));
-            if (e->initial || lv == step[a]) {
-                step[a] = lv;
-                break;
-            }
-            step[a] = lv;
-            if (lv) { /* activation: one step */
-                if (t_fall[a] != NEVER && NS(e->t - t_fall[a]) < cfg->lim.min_low_ns)
-                    if (push_viol(out, &cap_viol, (struct pk_violation){ e->t, PK_VIOL_LOW, (uint8_t)a,
-                                  NS(e->t - t_fall[a]), cfg->lim.min_low_ns }))
-                        return -1;
-                if (t_dir[a] != NEVER && NS(e->t - t_dir[a]) < cfg->lim.dir_setup_ns)
-                    if (push_viol(out, &cap_viol, (struct pk_violation){ e->t, PK_VIOL_SETUP, (uint8_t)a,
-                                  NS(e->t - t_dir[a]), cfg->lim.dir_setup_ns }))
-                        return -1;
-                t_rise[a] = e->t;
-                int8_t d = dir[a] ? 1 : -1;
-                out->pos[a] += d;
-                out->steps[a]++;
-                uint8_t ena = shared_enable ? en[0] : en[a];
-                if (!ena)
-                    out->steps_while_disabled++;
-                if (push_ev(out, &cap_ev, (struct pk_step_event){ e->t, (uint8_t)a, d, pen, ena }))
-                    return -1;
-            } else {
-                if (t_rise[a] != NEVER && NS(e->t - t_rise[a]) < cfg->lim.min_high_ns)
-                    if (push_viol(out, &cap_viol, (struct pk_violation){ e->t, PK_VIOL_HIGH, (uint8_t)a,
-                                  NS(e->t - t_rise[a]), cfg->lim.min_high_ns }))
-                        return -1;
-                t_fall[a] = e->t;
-            }
-            break;
-        case PK_SIG_DIR:
-            lv = (uint8_t)(e->level ^ ((cfg->dir_invert >> a) & 1u));
-            if (e->initial || lv == dir[a]) {
-                dir[a] = lv;
-                break;
-            }
-            dir[a] = lv;
-            if (t_rise[a] != NEVER && NS(e->t - t_rise[a]) < cfg->lim.dir_hold_ns)
-                if (push_viol(out, &cap_viol, (struct pk_violation){ e->t, PK_VIOL_HOLD, (uint8_t)a,
-                              NS(e->t - t_rise[a]), cfg->lim.dir_hold_ns }))
-                    return -1;
-            t_dir[a] = e->t;
-            break;
-        case PK_SIG_ENABLE:
-            en[a] = (uint8_t)(e->level ^ ((cfg->enable_invert >> a) & 1u));
-            break;
-        case PK_SIG_PEN:
-        default:
-            pen = (uint8_t)(e->level ^ (cfg->pen_invert & 1u));
+/* ns between two ticks, rounded down: a limit is met only if truly met. */
+static uint64_t ns_of(const struct pk_decoder *d, uint64_t dt)
+{
+    return dt * 1000000000u / d->cfg.tick_hz;
+}
+
+static int violation(struct pk_decoder *d, uint64_t t, int kind, unsigned a, uint64_t dt, uint32_t lim)
+{
+    uint64_t ns = ns_of(d, dt);
+    if (ns >= lim)
+        return 0;
+    if (push_viol(d->out, &d->cap_viol, (struct pk_violation){ t, (uint8_t)kind, (uint8_t)a, ns, lim })) {
+        d->oom = 1;
+        return -1;
+    }
+    return 0;
+}
+
+int pk_decoder_push(struct pk_decoder *d, const struct pk_trace_edge *e)
+{
+    const struct pk_decode_cfg *cfg = &d->cfg;
+    struct pk_decoded *out = d->out;
+    unsigned a = e->axis < PK_HAL_MAX_AXES ? e->axis : 0u;
+    uint8_t lv;
+    int rc = 0;
+
+    out->t_last = e->t;
+    switch (e->kind) {
+    case PK_SIG_STEP:
+        lv = (uint8_t)(e->level ^ ((cfg->step_invert >> a) & 1u));
+        if (e->initial || lv == d->step[a]) {
+            d->step[a] = lv;
             break;
         }
+        d->step[a] = lv;
+        if (lv) { /* activation: one step */
+            if (d->t_fall[a] != NEVER)
+                rc |= violation(d, e->t, PK_VIOL_LOW, a, e->t - d->t_fall[a], cfg->lim.min_low_ns);
+            if (d->t_dir[a] != NEVER)
+                rc |= violation(d, e->t, PK_VIOL_SETUP, a, e->t - d->t_dir[a], cfg->lim.dir_setup_ns);
+            d->t_rise[a] = e->t;
+            int8_t dir = d->dir[a] ? 1 : -1;
+            out->pos[a] += dir;
+            out->steps[a]++;
+            uint8_t ena = cfg->shared_enable ? d->en[0] : d->en[a];
+            if (!ena)
+                out->steps_while_disabled++;
+            struct pk_step_event ev = { e->t, (uint8_t)a, dir, d->pen, ena };
+            if (d->on_step != NULL)
+                d->on_step(d->on_step_arg, &ev);
+            if (d->keep_events && push_ev(out, &d->cap_ev, ev)) {
+                d->oom = 1;
+                rc = -1;
+            }
+        } else {
+            if (d->t_rise[a] != NEVER)
+                rc |= violation(d, e->t, PK_VIOL_HIGH, a, e->t - d->t_rise[a], cfg->lim.min_high_ns);
+            d->t_fall[a] = e->t;
+        }
+        break;
+    case PK_SIG_DIR:
+        lv = (uint8_t)(e->level ^ ((cfg->dir_invert >> a) & 1u));
+        if (e->initial || lv == d->dir[a]) {
+            d->dir[a] = lv;
+            break;
+        }
+        d->dir[a] = lv;
+        if (d->t_rise[a] != NEVER)
+            rc |= violation(d, e->t, PK_VIOL_HOLD, a, e->t - d->t_rise[a], cfg->lim.dir_hold_ns);
+        d->t_dir[a] = e->t;
+        break;
+    case PK_SIG_ENABLE:
+        d->en[a] = (uint8_t)(e->level ^ ((cfg->enable_invert >> a) & 1u));
+        break;
+    case PK_SIG_PEN:
+    default:
+        d->pen = (uint8_t)(e->level ^ (cfg->pen_invert & 1u));
+        break;
     }
-#undef NS
-    out->pen = pen;
+    out->pen = d->pen;
+    return rc ? -1 : 0;
+}
+
+void pk_decoder_edge(void *arg, const struct pk_trace_edge *e)
+{
+    (void)pk_decoder_push(arg, e);
+}
+
+int pk_decode(const struct pk_trace *t, const struct pk_decode_cfg *cfg, struct pk_decoded *out)
+{
+    struct pk_decoder d;
+    pk_decoder_init(&d, cfg, out, 1);
+    for (size_t i = 0; i < t->n && t->e != NULL; i++)
+        if (pk_decoder_push(&d, &t->e[i]) != 0)
+            return -1;
     return 0;
 }
 
@@ -248,57 +293,55 @@ void pk_decoded_free(struct pk_decoded *d)
     d->n_ev = d->n_viol = 0;
 }
 
+void pk_rate_init(struct pk_rate_est *r, uint32_t tick_hz, unsigned window)
+{
+    memset(r, 0, sizeof *r);
+    r->tick_hz = tick_hz;
+    r->w = window < 1u ? 1u : window > PK_RATE_WINDOW_MAX ? PK_RATE_WINDOW_MAX : window;
+}
+
+void pk_rate_step(struct pk_rate_est *r, uint64_t t, int dir)
+{
+    const unsigned ring = 2u * PK_RATE_WINDOW_MAX + 1u, w = r->w;
+    const double hz = (double)r->tick_hz;
+    const uint64_t pause = (uint64_t)(r->tick_hz / 20u) * w; /* 50 ms per step of the window */
+    r->pos += dir;
+    unsigned j = (unsigned)(r->n % ring);
+    r->t[j] = t;
+    r->p[j] = r->pos;
+    r->n++;
+    if (r->n <= w)
+        return;
+    /* speed over the last w steps: samples j-w .. j */
+    unsigned jw = (unsigned)((r->n - 1u - w) % ring);
+    uint64_t dt = t - r->t[jw];
+    if (dt == 0u || dt > pause)
+        return;
+    double v = (double)(r->pos - r->p[jw]) * hz / (double)dt;
+    if (fabs(v) > r->max_speed)
+        r->max_speed = fabs(v);
+    if (r->n <= 2u * w)
+        return;
+    /* and over the w before: samples j-2w .. j-w */
+    unsigned j2w = (unsigned)((r->n - 1u - 2u * w) % ring);
+    uint64_t dt0 = r->t[jw] - r->t[j2w];
+    if (dt0 == 0u || dt0 > pause)
+        return;
+    double v0 = (double)(r->p[jw] - r->p[j2w]) * hz / (double)dt0;
+    double tc = ((double)t - (double)r->t[j2w]) / 2.0 / hz;
+    double acc = fabs(v - v0) / tc;
+    if (acc > r->max_accel)
+        r->max_accel = acc;
+}
+
 void pk_decode_axis_rates(const struct pk_decoded *d, unsigned axis, uint32_t tick_hz,
                           unsigned window, double *max_speed, double *max_accel)
 {
-    /* Per-axis (tick, position after the step) samples. */
-    size_t n = 0;
+    struct pk_rate_est r;
+    pk_rate_init(&r, tick_hz, window);
     for (size_t i = 0; i < d->n_ev; i++)
-        n += d->ev[i].axis == axis;
-    *max_speed = 0.0;
-    *max_accel = 0.0;
-    if (window == 0u)
-        window = 1u;
-    if (n < 2u)
-        return;
-    uint64_t *tt = malloc(n * sizeof *tt);
-    int64_t *pp = malloc(n * sizeof *pp);
-    if (tt == NULL || pp == NULL) {
-        free(tt);
-        free(pp);
-        return;
-    }
-    int64_t pos = 0;
-    size_t k = 0;
-    for (size_t i = 0; i < d->n_ev; i++) {
-        if (d->ev[i].axis != axis)
-            continue;
-        pos += d->ev[i].dir;
-        tt[k] = d->ev[i].t;
-        pp[k] = pos;
-        k++;
-    }
-    const double hz = (double)tick_hz;
-    const uint64_t pause = tick_hz / 20u; /* 50 ms */
-    size_t w = window < n ? window : n - 1u;
-    for (size_t i = w; i < n; i++) {
-        uint64_t dt = tt[i] - tt[i - w];
-        if (dt == 0u || dt > pause * w)
-            continue;
-        double v = (double)(pp[i] - pp[i - w]) * hz / (double)dt;
-        if (fabs(v) > *max_speed)
-            *max_speed = fabs(v);
-        if (i + w < n) {
-            uint64_t dt2 = tt[i + w] - tt[i];
-            if (dt2 == 0u || dt2 > pause * w)
-                continue;
-            double v2 = (double)(pp[i + w] - pp[i]) * hz / (double)dt2;
-            double tc = ((double)tt[i + w] - (double)tt[i - w]) / 2.0 / hz;
-            double acc = fabs(v2 - v) / tc;
-            if (acc > *max_accel)
-                *max_accel = acc;
-        }
-    }
-    free(tt);
-    free(pp);
+        if (d->ev[i].axis == axis)
+            pk_rate_step(&r, d->ev[i].t, d->ev[i].dir);
+    *max_speed = r.max_speed;
+    *max_accel = r.max_accel;
 }

@@ -42,21 +42,27 @@ struct pk_trace_edge {
     uint8_t initial;  /**< 1: level taken when the line was requested */
 };
 
+/** Called for every edge as it is recorded (streaming consumers). */
+typedef void (*pk_trace_edge_fn)(void *arg, const struct pk_trace_edge *e);
+
 struct pk_trace {
-    struct pk_trace_edge *e;  /**< heap array */
-    size_t n, cap;
+    struct pk_trace_edge *e;  /**< heap array (only with keep) */
+    size_t n, cap;            /**< n counts every edge, kept or not */
+    int keep;                 /**< 1: store the edges in e[] (default after init) */
+    pk_trace_edge_fn on_edge; /**< if not NULL: every edge, as it is recorded */
+    void *on_edge_arg;
     uint32_t tick_hz;
     int oom;                  /**< an append failed for lack of memory */
     uint32_t unmapped;        /**< events on lines that map to no signal */
     int16_t map[64];          /**< line offset -> kind << 4 | axis, -1 none */
 };
 
-/** Empty trace; no line mapped. */
+/** Empty trace that keeps its edges; no line mapped, no consumer. */
 void pk_trace_init(struct pk_trace *t, uint32_t tick_hz);
 /** Map the lines of a gpiod board configuration to signals. */
 void pk_trace_map_gpiod(struct pk_trace *t, const struct pk_gpiod_cfg *cfg);
 void pk_trace_free(struct pk_trace *t);
-/** Append one edge (0, or -1 out of memory). */
+/** Record one edge: to on_edge, and to e[] if keep (0, or -1 out of memory). */
 int pk_trace_add(struct pk_trace *t, uint64_t tick, enum pk_sig_kind kind, unsigned axis,
                  int level, int initial);
 /** pk_gpiod_mock_sink_fn: arg is the struct pk_trace. */
@@ -72,6 +78,10 @@ const char *pk_trace_signal_name(enum pk_sig_kind kind, unsigned axis, int share
  * Deterministic text (no host-dependent formatting). Returns 0 or -1 on I/O error.
  */
 int pk_trace_write_csv(const struct pk_trace *t, FILE *f, int shared_enable);
+
+/** The same, streaming: the header, then one row per call. */
+void pk_trace_csv_header(FILE *f, uint32_t tick_hz);
+void pk_trace_csv_row(FILE *f, const struct pk_trace_edge *e, uint32_t tick_hz, int shared_enable);
 
 /** Driver timing limits, ns. */
 struct pk_timing_limits {
@@ -123,7 +133,32 @@ struct pk_decoded {
     uint8_t pen;                       /**< final logical pen level */
 };
 
-/** Decode a trace. Returns 0, or -1 out of memory. Free with pk_decoded_free. */
+/** Called for every decoded step, in time order. */
+typedef void (*pk_step_fn)(void *arg, const struct pk_step_event *ev);
+
+/** Streaming decoder: feed it edges one by one (e.g. as pk_trace's on_edge). */
+struct pk_decoder {
+    struct pk_decode_cfg cfg;
+    struct pk_decoded *out;            /**< results accumulate here */
+    int keep_events;                   /**< 1: also store every step in out->ev */
+    pk_step_fn on_step;                /**< if not NULL: every step as it is decoded */
+    void *on_step_arg;
+    int oom;                           /**< an allocation failed (results incomplete) */
+    uint8_t step[PK_HAL_MAX_AXES], dir[PK_HAL_MAX_AXES], en[PK_HAL_MAX_AXES], pen;
+    uint64_t t_rise[PK_HAL_MAX_AXES], t_fall[PK_HAL_MAX_AXES], t_dir[PK_HAL_MAX_AXES];
+    size_t cap_ev, cap_viol;
+};
+
+/** Start decoding into *out (cleared). */
+void pk_decoder_init(struct pk_decoder *d, const struct pk_decode_cfg *cfg, struct pk_decoded *out,
+                     int keep_events);
+/** One edge, in time order. Returns 0, or -1 out of memory. */
+int pk_decoder_push(struct pk_decoder *d, const struct pk_trace_edge *e);
+/** pk_trace_edge_fn adapter: arg is the struct pk_decoder. */
+void pk_decoder_edge(void *arg, const struct pk_trace_edge *e);
+
+/** Decode a stored trace (keeps every step in out->ev). Returns 0, or -1 out
+ *  of memory. Free with pk_decoded_free. */
 int pk_decode(const struct pk_trace *t, const struct pk_decode_cfg *cfg, struct pk_decoded *out);
 void pk_decoded_free(struct pk_decoded *d);
 
@@ -142,5 +177,19 @@ const char *pk_violation_name(enum pk_violation_kind k);
  */
 void pk_decode_axis_rates(const struct pk_decoded *d, unsigned axis, uint32_t tick_hz,
                           unsigned window, double *max_speed, double *max_accel);
+
+/** The same estimate, streaming: one per axis, fed each step of its axis. */
+#define PK_RATE_WINDOW_MAX 64
+struct pk_rate_est {
+    uint32_t tick_hz;
+    unsigned w;                                /**< window, 1..PK_RATE_WINDOW_MAX */
+    uint64_t t[2 * PK_RATE_WINDOW_MAX + 1];    /**< ring of the last 2w+1 steps */
+    int64_t p[2 * PK_RATE_WINDOW_MAX + 1];
+    uint64_t n;                                /**< steps seen */
+    int64_t pos;
+    double max_speed, max_accel;               /**< steps/s, steps/s^2 */
+};
+void pk_rate_init(struct pk_rate_est *r, uint32_t tick_hz, unsigned window);
+void pk_rate_step(struct pk_rate_est *r, uint64_t t, int dir);
 
 #endif

@@ -34,8 +34,11 @@ pts = [(cx + 8 * math.cos(2 * math.pi * i / 12), cy + 8 * math.sin(2 * math.pi *
 stroke(pts)
 # a stem with a leaf: straight stem, curved leaf as a polyline
 stroke([(70, 46), (70, 34), (70, 22)])
-leaf = [(70 + 14 * math.sin(math.pi * i / 10), 34 + 10 * i / 10 + 4 * math.sin(math.pi * i / 10)) for i in range(11)]
-stroke(leaf + [(70 + 14 * math.sin(math.pi * i / 10) * 0.3, 34 + 10 * i / 10) for i in range(10, -1, -1)])
+# a leaf: two arcs from the stem to a pointed tip (sharp at both ends)
+tip = (88, 42)
+upper = [(70 + (tip[0] - 70) * i / 12, 34 + (tip[1] - 34) * i / 12 + 5 * math.sin(math.pi * i / 12)) for i in range(13)]
+lower = [(70 + (tip[0] - 70) * i / 12, 34 + (tip[1] - 34) * i / 12 - 3 * math.sin(math.pi * i / 12)) for i in range(12, -1, -1)]
+stroke(upper + lower[1:])
 # a spiral in the top-right corner, 3 turns, 15 degree steps
 pts = []
 for i in range(73):

@@ -102,9 +102,11 @@ int main(int argc, char **argv)
         }
         free(text);
     }
-    if (bcfg.axes < mcfg.axes) {
-        fprintf(stderr, "plotkin-gpiod: the board wires %u axes, the machine has %u\n",
-                (unsigned)bcfg.axes, mcfg.axes);
+    /* The machine drives the axes the board wires (a plotter: X Y + pen). */
+    mcfg.axes = bcfg.axes < PK_AXES ? bcfg.axes : PK_AXES;
+    if (mcfg.axes < 2u) {
+        fprintf(stderr, "plotkin-gpiod: the board wires %u axis; plotkin needs 2 or more\n",
+                (unsigned)bcfg.axes);
         return 2;
     }
     static struct pk_motion_cfg motion;
