@@ -63,19 +63,19 @@ soak: $(BUILD)/plotkin
 # ---- known findings (bugs in code this branch does not own) ---------------------
 # tests/fuzz/findings/<target>/<ID>-<what> are inputs that reproduce a finding
 # reported in tests/fuzz/README.md. `make fuzz-findings` replays each through
-# the target built with -DFZ_STRICT=1 (the allowances the fuzz targets make
+# the target built with -DFZ_STRICT=3 (the allowances the fuzz targets make
 # for known findings removed) and says REPRODUCED or FIXED for each; once the
 # owner's fix makes every one FIXED, drop the allowance and move the inputs
 # into tests/fuzz/corpus/ so `make test` keeps them fixed.
 $(BUILD)/fuzz-strict/%: tests/fuzz/%.c tests/fuzz/replay_main.c $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(WARN) $(SANFLAGS) -DFZ_STRICT=1 -o $@ $< tests/fuzz/replay_main.c \
+	$(CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(WARN) $(SANFLAGS) -DFZ_STRICT=3 -o $@ $< tests/fuzz/replay_main.c \
 	    $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
 $(BUILD)/fuzz/strict_%: $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o $(BUILD)/fuzz/libfuzzdeps.a
 	$(FUZZ_CC) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $< $(BUILD)/fuzz/libfuzzdeps.a $(HOST_LIBS)
 $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o: tests/fuzz/%.c
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) -DFZ_STRICT=1 -c $< -o $@
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) -DFZ_STRICT=3 -c $< -o $@
 
 .PHONY: fuzz-findings
 fuzz-findings: $(addprefix $(BUILD)/fuzz-strict/,$(notdir $(wildcard tests/fuzz/findings/*)))
