@@ -62,7 +62,9 @@ soak: $(BUILD)/plotkin
 
 # ---- known findings (bugs in code this branch does not own) ---------------------
 # tests/fuzz/findings/<target>/<ID>-<what> are inputs that reproduce a finding
-# reported in tests/fuzz/README.md. `make fuzz-findings` replays each through
+# reported in tests/fuzz/README.md, and tests/fuzz/findings/findings_*.c unit
+# tests of their own (failing while the finding is open, hence not in make
+# test). `make fuzz-findings` runs those and replays each input through
 # the target built with -DFZ_STRICT=3 (the allowances the fuzz targets make
 # for known findings removed) and says REPRODUCED or FIXED for each; once the
 # owner's fix makes every one FIXED, drop the allowance and move the inputs
@@ -77,9 +79,16 @@ $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o: tests/fuzz/%.c
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) -DFZ_STRICT=3 -c $< -o $@
 
+$(BUILD)/fuzz-strict/findings_%: tests/fuzz/findings/findings_%.c $(TH_OBJ_S) $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_COMMON) $(WARN) $(SANFLAGS) -o $@ $< $(TH_OBJ_S) $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
+
+FINDING_DIRS  := $(patsubst %/,%,$(wildcard tests/fuzz/findings/*/))
+FINDING_TESTS := $(patsubst tests/fuzz/findings/%.c,$(BUILD)/fuzz-strict/%,$(wildcard tests/fuzz/findings/findings_*.c))
 .PHONY: fuzz-findings
-fuzz-findings: $(addprefix $(BUILD)/fuzz-strict/,$(notdir $(wildcard tests/fuzz/findings/*)))
-	@for d in tests/fuzz/findings/*/; do t=$$(basename $$d); for f in $$d*; do \
+fuzz-findings: $(addprefix $(BUILD)/fuzz-strict/,$(notdir $(FINDING_DIRS))) $(FINDING_TESTS)
+	@for d in $(FINDING_DIRS); do t=$$(basename $$d); for f in $$d/*; do \
 	  if $(BUILD)/fuzz-strict/$$t $$f >/dev/null 2>$(BUILD)/fuzz-strict/last.err; then \
 	    echo "FIXED       $$f"; else echo "REPRODUCED  $$f: $$(grep -m1 'invariant broken' $(BUILD)/fuzz-strict/last.err)"; fi; \
 	done; done
+	@for t in $(FINDING_TESTS); do $$t | grep -E '^(ok|not ok)' | sed 's/^ok /FIXED       /; s/^not ok /REPRODUCED  /'; done
