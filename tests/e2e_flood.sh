@@ -2,7 +2,8 @@
 # e2e_flood.sh — a character-counting sender floods `plotkin serve` over a
 # pseudo-terminal (tests/flood_sender.py): every line acknowledged exactly
 # once, final position exact, memory flat; then the same with a sender that
-# disconnects mid-flood and reconnects. `make test` sends PLOTKIN_FLOOD_LINES
+# disconnects mid-flood and reconnects, and with a sender that ignores
+# character counting. `make test` sends PLOTKIN_FLOOD_LINES
 # (default 10,000) lines; `make soak` sends 100,000. The simulated clock runs
 # PLOTKIN_FLOOD_SPEED (50) times real time, so the machine, not the sender,
 # sets the pace: the receive buffer stays full and the sender waits on
@@ -48,4 +49,5 @@ flood() { # lines [--disconnect-at K]
 
 flood "$LINES"
 flood 3000 --disconnect-at 1500
+flood 3000 --no-counting
 echo "$pass passed, $fail failed"
