@@ -114,16 +114,23 @@ def status(deadline_s=5):
             return line
 
 
-# Wake up: a soft reset gives a clean state and a greeting.
+# Wake up: take the start-up greeting if it is there (not on a reconnect),
+# then a soft reset gives a clean state. Send nothing until its greeting:
+# a reset discards input not read yet (as Grbl does), so a line sent right
+# behind 0x18 could be dropped unanswered.
+def wait_greeting(seconds):
+    end = time.monotonic() + seconds
+    while True:
+        line = readline(end)
+        if line is None:
+            return None
+        if line.startswith("Grbl "):
+            return line
+
+
+wait_greeting(1.0)
 write_all(b"\x18")
-end = time.monotonic() + 10
-greet = None
-while greet is None:
-    line = readline(end)
-    if line is None:
-        break
-    if line.startswith("Grbl "):
-        greet = line
+greet = wait_greeting(10)
 check("serve greets after a soft reset", greet is not None)
 settings, ans = command("$$")
 spmm = {}

@@ -173,7 +173,7 @@ static int decode_point(struct fz_in *in, unsigned mode, const pk_um_t *prev, un
     for (unsigned a = 0; a < PK_AXES; a++) {
         switch (mode) {
         case 0: /* a small step from the previous point */
-            p[a] = prev[a] + (int8_t)fz_u8(in) * 37;
+            p[a] = (pk_um_t)(int32_t)(uint32_t)((int64_t)prev[a] + (int8_t)fz_u8(in) * 37);
             break;
         case 1: /* anywhere in the valid range */
             p[a] = (pk_um_t)(fz_u32(in) % (2u * (uint32_t)PK_UM_MAX + 1u)) - PK_UM_MAX;
@@ -336,8 +336,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 pk_um_t p[PK_AXES];
                 for (unsigned a = 0; a < PK_AXES; a++) {
                     walk = walk * 1664525u + 1013904223u;
-                    int32_t v = prev[a] + (int32_t)((walk >> 8) % 200001u) - 100000;
-                    p[a] = v > PK_UM_MAX ? PK_UM_MAX : v < -PK_UM_MAX ? -PK_UM_MAX : v;
+                    /* int64: prev may hold anything in an axis beyond dims */
+                    int64_t v = (int64_t)prev[a] + (int64_t)((walk >> 8) % 200001u) - 100000;
+                    p[a] = (pk_um_t)(v > PK_UM_MAX ? PK_UM_MAX : v < -PK_UM_MAX ? -PK_UM_MAX : v);
                 }
                 FZ_CHECK(pk_refine_push(&r, p) == PK_OK, "push after NEED_INPUT is accepted");
                 memcpy(PTS[s.m++], p, sizeof p);
