@@ -30,9 +30,11 @@ FUZZ_LIBSRC  := $(FW_SRC) $(HAL_SRC) $(SIM_SRC)
 FUZZ_LIBOBJ  := $(patsubst %.c,$(FUZZ_OBJDIR)/%.o,$(FUZZ_LIBSRC))
 FUZZ_BINS    := $(addprefix $(BUILD)/fuzz/,$(FUZZ_ALL))
 
+# -MMD: the top Makefile includes every .d under $(BUILD), so a changed header
+# (a struct layout) rebuilds the fuzz objects too
 $(FUZZ_OBJDIR)/%.o: %.c
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) $(EXTRA_CFLAGS) -c $< -o $@
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) $(EXTRA_CFLAGS) -MMD -MP -c $< -o $@
 $(BUILD)/fuzz/libfuzzdeps.a: $(FUZZ_LIBOBJ)
 	@mkdir -p $(@D); rm -f $@; ar rcs $@ $^
 $(BUILD)/fuzz/fuzz_%: $(FUZZ_OBJDIR)/tests/fuzz/fuzz_%.o $(BUILD)/fuzz/libfuzzdeps.a
@@ -77,7 +79,7 @@ $(BUILD)/fuzz/strict_%: $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o $(BUILD)/fuzz/libfu
 	$(FUZZ_CC) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $< $(BUILD)/fuzz/libfuzzdeps.a $(HOST_LIBS)
 $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o: tests/fuzz/%.c
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) -DFZ_STRICT=3 -c $< -o $@
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) -DFZ_STRICT=3 -MMD -MP -c $< -o $@
 
 $(BUILD)/fuzz-strict/findings_%: tests/fuzz/findings/findings_%.c $(TH_OBJ_S) $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
 	@mkdir -p $(@D)
