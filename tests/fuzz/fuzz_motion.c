@@ -38,9 +38,9 @@
 #include <string.h>
 
 #define TICK_HZ 1000000u
-/* FZ_STRICT (make fuzz-findings: 3) drops the allowances made for known
+/* FZ_STRICT (make fuzz-findings: 7) drops the allowances made for known
  * findings (tests/fuzz/README.md), so their inputs reproduce them:
- * bit 0 for M1, bit 1 for M2. */
+ * bit 0 for M1, bit 1 for M2, bit 2 for M3. */
 #ifndef FZ_STRICT
 #define FZ_STRICT 0
 #endif
@@ -112,7 +112,10 @@ static int h_step(void *c, uint32_t mask, uint32_t levels)
                  * edge phase (1 step), whatever the segment lengths inside.
                  * Hence the count minus 2, over the span +-2 ticks. */
                 double rate = (RING - 3u) * (double)TICK_HZ / (span > 2 ? span - 2 : 0.5);
-                double allowed = H.max_sps[a];
+                /* Finding M3 (tests/fuzz/README.md): with coarse steps/mm an
+                 * axis runs up to ~15 % over its max rate even over 32 steps;
+                 * until fixed, the default build allows 25 % (strict: 0). */
+                double allowed = H.max_sps[a] * ((fz_strict & 4) ? 1.0 : 1.25);
                 if (rate > allowed) {
                     fprintf(stderr, "axis %u: %.1f steps/s over %u steps, limit %.1f; intervals:", a,
                             rate, RING - 1u, H.max_sps[a]);
