@@ -1,0 +1,465 @@
+/*
+ * fuzz_motion.c — libFuzzer target for the motion core (pk_motion.h):
+ * stroke assembler + kernel + planner + step generator, fed random requests
+ * on a simulated clock, with HAL faults, resets and holds at random moments.
+ *
+ * The harness has its own HAL: a 1 MHz simulated timer and step/dir/tool
+ * outputs that it decodes itself (rising step edges, signed by the direction
+ * level at that moment), independently of the code under test. The input
+ * chooses the machine settings (axes, steps/mm with fractions, max rates,
+ * accelerations, junction deviation, pulse and set-up times, smoothing
+ * policy) and then a program: feed and rapid moves, pen changes, dwells,
+ * smoothing changes, end of program, simulated time passing, feed hold,
+ * resume, reset, and a HAL write that fails after k more writes.
+ *
+ * Invariants checked:
+ *   - the reported step position always equals the steps decoded from the
+ *     pins (so after a fault or a reset it is the pulses really emitted).
+ *   - when the program has run out and the machine is idle, every axis is
+ *     exactly at round(target_um * steps_per_mm / 1000) (ties away from
+ *     zero, computed here in exact integers) of the last accepted target.
+ *   - a failing HAL write puts the machine in ALARM, which refuses moves
+ *     with PK_MOTION_EALARM; reset leaves it; EFULL/ERANGE change nothing.
+ *   - speed: any 32 consecutive steps of an axis (31 intervals) take at
+ *     least as long as 29 steps at the axis's max rate, less 2 ticks: whole
+ *     steps at segment ends (round(um * steps/mm)) and the edge phase allow
+ *     2 steps more than max_rate * duration in any window, no more.
+ *   - driver timing: a step pulse lasts at least step_pulse_ticks; a
+ *     direction change comes at least dir_setup_ticks before the next rising
+ *     step edge of that axis; no edge is ever written at a time earlier than
+ *     the previous one.
+ *   - the machine finishes: with holds resumed, everything drains within a
+ *     simulated-time budget derived from the program.
+ */
+#include "fuzz_common.h"
+#include "pk_motion.h"
+
+#include <math.h>
+#include <string.h>
+
+#define TICK_HZ 1000000u
+/* FZ_STRICT (make fuzz-findings: 7) drops the allowances made for known
+ * findings (tests/fuzz/README.md), so their inputs reproduce them:
+ * bit 0 for M1, bit 1 for M2, bit 2 for M3. */
+#ifndef FZ_STRICT
+#define FZ_STRICT 0
+#endif
+static const int fz_strict = FZ_STRICT;
+#define RING 32u
+
+/* ---- the harness's HAL ------------------------------------------------------ */
+static struct {
+    uint64_t now;
+    pk_hal_timer_cb cb;
+    void *arg;
+    uint64_t next;
+    uint32_t step_raw, dir_raw;
+    long fail_after;           /* -1 never; else writes left before one fails */
+    int failed;
+    int in_reset;              /* pk_machine_reset is running (MAIN context) */
+    int failed_in_reset;       /* the failing write was the reset's own */
+    int64_t pos[PK_AXES];      /* decoded from the pins */
+    uint64_t rise[PK_AXES], dir_change[PK_AXES];
+    uint64_t hist[PK_AXES][RING];
+    unsigned nh[PK_AXES];
+    double max_sps[PK_AXES];
+    uint32_t pulse_ticks, setup_ticks;
+    uint64_t last_write;
+    uint64_t edges;
+} H;
+
+static int h_fault(void)
+{
+    if (H.fail_after == 0) {
+        if (getenv("FUZZ_MOTION_VERBOSE"))
+            fprintf(stderr, "t=%.6f s: a HAL write fails (injected)\n", (double)H.now / TICK_HZ);
+        H.failed = 1;
+        H.failed_in_reset = H.in_reset;
+        H.fail_after = -1; /* one injected failure at a time */
+        return PK_HAL_EIO;
+    }
+    if (H.fail_after > 0)
+        H.fail_after--;
+    FZ_CHECK(H.now >= H.last_write, "pin writes never go back in time");
+    H.last_write = H.now;
+    return PK_HAL_OK;
+}
+
+static int h_step(void *c, uint32_t mask, uint32_t levels)
+{
+    (void)c;
+    if (h_fault())
+        return PK_HAL_EIO;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        uint32_t bit = 1u << a;
+        if (!(mask & bit))
+            continue;
+        int was = (H.step_raw & bit) != 0, is = (levels & bit) != 0;
+        if (!was && is) { /* rising edge: one step */
+            FZ_CHECK(H.now >= H.dir_change[a] + H.setup_ticks || H.dir_change[a] == 0,
+                     "direction set up before the step edge");
+            H.pos[a] += (H.dir_raw & bit) ? 1 : -1;
+            H.rise[a] = H.now;
+            H.edges++;
+            /* rate over the last RING steps of this axis */
+            unsigned k = H.nh[a]++;
+            H.hist[a][k % RING] = H.now;
+            if (k >= RING) {
+                double span = (double)(H.now - H.hist[a][(k + 1u) % RING]);
+                /* Steps are whole: each segment's end is round(um * steps/mm),
+                 * so the steps in a window can exceed max_rate * duration by
+                 * the rounding at the window's two ends (1 step) plus the
+                 * edge phase (1 step), whatever the segment lengths inside.
+                 * Hence the count minus 2, over the span +-2 ticks. */
+                double rate = (RING - 3u) * (double)TICK_HZ / (span > 2 ? span - 2 : 0.5);
+                /* Finding M3 (tests/fuzz/README.md): with coarse steps/mm an
+                 * axis runs up to ~15 % over its max rate even over 32 steps;
+                 * until fixed, the default build allows 25 % (strict: 0). */
+                double allowed = H.max_sps[a] * ((fz_strict & 4) ? 1.0 : 1.25);
+                if (rate > allowed) {
+                    fprintf(stderr, "axis %u: %.1f steps/s over %u steps, limit %.1f; intervals:", a,
+                            rate, RING - 1u, H.max_sps[a]);
+                    for (unsigned j = 1; j < RING; j++)
+                        fprintf(stderr, " %llu", (unsigned long long)(H.hist[a][(k + 1u + j) % RING] -
+                                                                      H.hist[a][(k + j) % RING]));
+                    fprintf(stderr, "\n");
+                }
+                FZ_CHECK(rate <= allowed, "axis rate within its max rate");
+            }
+        }
+        /* A reset lowers the step lines at once, even in the middle of a
+         * pulse (reported: tests/fuzz/README.md, finding M2); only then may a
+         * pulse be shorter than step_pulse_ticks. */
+        int exempt = H.in_reset ? (fz_strict & 2) == 0 : 0;
+        if (was && !is && !exempt)
+            FZ_CHECK(H.now >= H.rise[a] + H.pulse_ticks, "step pulse lasts step_pulse_ticks");
+    }
+    H.step_raw = (H.step_raw & ~mask) | (levels & mask);
+    return PK_HAL_OK;
+}
+
+static int h_dir(void *c, uint32_t mask, uint32_t levels)
+{
+    (void)c;
+    if (h_fault())
+        return PK_HAL_EIO;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        uint32_t bit = 1u << a;
+        if ((mask & bit) && ((H.dir_raw ^ levels) & bit)) {
+            H.dir_change[a] = H.now;
+            H.nh[a] = 0; /* a reversal happens at rest: restart the rate window */
+        }
+    }
+    H.dir_raw = (H.dir_raw & ~mask) | (levels & mask);
+    return PK_HAL_OK;
+}
+
+static int h_enable(void *c, uint32_t mask, uint32_t levels)
+{
+    (void)c;
+    (void)mask;
+    (void)levels;
+    return h_fault();
+}
+
+static int h_tool(void *c, uint32_t level)
+{
+    (void)c;
+    (void)level;
+    return h_fault();
+}
+
+static int h_tstart(void *c, pk_hal_timer_cb cb, void *arg, uint64_t first)
+{
+    (void)c;
+    H.cb = cb;
+    H.arg = arg;
+    H.next = first < H.now ? H.now : first;
+    return PK_HAL_OK;
+}
+
+static int h_tstop(void *c)
+{
+    (void)c;
+    H.cb = NULL;
+    return PK_HAL_OK;
+}
+
+static uint64_t h_clock(void *c) { (void)c; return H.now; }
+
+static const struct pk_hal_ops H_OPS = {
+    .version = PK_HAL_VERSION,
+    .step_write = h_step,
+    .dir_write = h_dir,
+    .enable_write = h_enable,
+    .tool_write = h_tool,
+    .timer_start = h_tstart,
+    .timer_stop = h_tstop,
+    .clock_ticks = h_clock,
+};
+
+/* Run the timer up to `until`. */
+static void advance(uint64_t until)
+{
+    while (H.cb != NULL && H.next <= until) {
+        if (H.next > H.now)
+            H.now = H.next;
+        uint64_t nx = H.cb(H.arg, H.now);
+        if (nx == 0) {
+            H.cb = NULL;
+            break;
+        }
+        FZ_CHECK(nx > H.now, "the step timer asks for a later tick");
+        H.next = nx;
+    }
+    if (until > H.now)
+        H.now = until;
+}
+
+/* ---- oracle ----------------------------------------------------------------------- */
+static int64_t oracle_steps(pk_um_t um, pk_spmm_q16_t s)
+{
+    int64_t num = (int64_t)um * (int64_t)s, den = (int64_t)1000 << 16;
+    return num >= 0 ? (num + den / 2) / den : -((-num + den / 2) / den);
+}
+
+static struct pk_machine MACH;
+static struct pk_motion_cfg CFG;
+
+static void check_position(void)
+{
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&MACH, p);
+    for (unsigned a = 0; a < PK_AXES; a++)
+        FZ_CHECK(p[a] == H.pos[a], "reported position equals the steps on the pins");
+}
+
+/* pk_machine_reset discards the result of its own step-line write (see the
+ * report in tests/fuzz/README.md): a failure there leaves no ALARM. */
+static void do_reset(void)
+{
+    H.in_reset = 1;
+    pk_machine_reset(&MACH);
+    H.in_reset = 0;
+    if (H.failed && H.failed_in_reset && !(fz_strict & 1))
+        H.failed = 0;
+}
+
+static void poll_for(uint64_t ticks)
+{
+    uint64_t end = H.now + ticks;
+    while (H.now < end) {
+        pk_machine_poll(&MACH);
+        uint64_t t = H.now + 1000u; /* the main loop runs every millisecond */
+        advance(t < end ? t : end);
+        check_position();
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    struct fz_in in = { data, size, 0 };
+    memset(&H, 0, sizeof H);
+    H.fail_after = -1;
+    memset(&CFG, 0, sizeof CFG);
+    uint8_t b = fz_u8(&in);
+    CFG.axes = (b & 1u) ? 3u : 2u;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        /* 1/16 .. ~200 steps/mm, with a fraction (rounding matters) */
+        uint32_t s = PK_SPMM_Q16_MIN + fz_u32(&in) % (200u << 16);
+        CFG.steps_per_mm_q16[a] = s;
+        CFG.max_rate[a] = 600000u + (uint32_t)fz_u8(&in) * 40000u;   /* 600..10800 mm/min */
+        CFG.accel[a] = 50000u + (uint32_t)fz_u8(&in) * 20000u;       /* 50..5150 mm/s^2 */
+        H.max_sps[a] = (double)CFG.max_rate[a] / 60000.0 * (double)s / 65536.0;
+    }
+    uint8_t c = fz_u8(&in);
+    CFG.junction_dev_um = (pk_um_t)(c & 63u) * 10;
+    CFG.step_pulse_ticks = 1u + ((c >> 6) & 3u);
+    CFG.dir_setup_ticks = (uint32_t)fz_u8(&in) & 7u;
+    CFG.pen_settle_ms = fz_u8(&in) & 15u;
+    CFG.pen_down_level = 1;
+    uint8_t sm = fz_u8(&in);
+    CFG.smooth.mode = sm % 3u;
+    CFG.smooth.scheme = (sm >> 2) & 1u;
+    CFG.smooth.degree = CFG.smooth.mode == PK_SMOOTH_TOLERANCE ? 2u + ((sm >> 3) & 1u) : 1u + ((sm >> 3) & 3u);
+    CFG.smooth.depth = (sm >> 5) & 3u;
+    CFG.smooth.tolerance_um = 1 + fz_u8(&in) * 20;
+    CFG.smooth.sharp_turn_deg = (uint16_t)(fz_u8(&in) % 181u);
+    H.pulse_ticks = CFG.step_pulse_ticks;
+    H.setup_ticks = CFG.dir_setup_ticks;
+
+    struct pk_hal hal = { &H_OPS, NULL, TICK_HZ, 0, 0, 0, 0 };
+    int rc = pk_machine_init(&MACH, &CFG, &hal);
+    if (rc != PK_MOTION_OK) {
+        if (getenv("FUZZ_MOTION_VERBOSE"))
+            fprintf(stderr, "init refused: %d\n", rc);
+        FZ_CHECK(rc == PK_MOTION_EINVAL, "init refuses only with EINVAL here");
+        return 0;
+    }
+    check_position();
+
+    pk_um_t target[PK_AXES] = { 0, 0, 0 }; /* last accepted target */
+    pk_um_t cur[PK_AXES] = { 0, 0, 0 };
+    unsigned ops = 0;
+    uint64_t budget = 0; /* simulated time the program may need */
+    while (fz_more(&in) && ops++ < 200u) {
+        uint8_t op = fz_u8(&in);
+        int r = PK_MOTION_OK;
+        if (getenv("FUZZ_MOTION_VERBOSE"))
+            fprintf(stderr, "t=%.6f s: op %u, state %d\n", (double)H.now / TICK_HZ, op & 15u,
+                    (int)pk_machine_state(&MACH));
+        switch (op & 15u) {
+        case 0: case 1: case 2: case 3: case 4: { /* feed move, a few mm at most */
+            pk_um_t p[PK_AXES];
+            for (unsigned a = 0; a < PK_AXES; a++) {
+                int32_t v = cur[a] + (int8_t)fz_u8(&in) * 40;
+                p[a] = v > 20000 ? 20000 : v < -20000 ? -20000 : v;
+            }
+            pk_um_min_t f = 300000u + (uint32_t)fz_u8(&in) * 24000u; /* 300..6420 mm/min */
+            r = pk_machine_move(&MACH, p, f, PK_MOVE_FEED);
+            if (r == PK_MOTION_OK) {
+                double d2 = 0;
+                for (unsigned a = 0; a < PK_AXES; a++)
+                    d2 += ((double)p[a] - cur[a]) * ((double)p[a] - cur[a]);
+                /* generous: twice the time at the feed, plus a stop and a start */
+                budget += (uint64_t)(2.0 * sqrt(d2) / (f / 60.0) * TICK_HZ) + TICK_HZ / 2u;
+                memcpy(target, p, sizeof p);
+                memcpy(cur, p, sizeof p);
+            }
+            break;
+        }
+        case 5: { /* rapid */
+            pk_um_t p[PK_AXES];
+            for (unsigned a = 0; a < PK_AXES; a++)
+                p[a] = (pk_um_t)((int16_t)fz_u16(&in) % 20001);
+            r = pk_machine_move(&MACH, p, 0, PK_MOVE_RAPID);
+            if (r == PK_MOTION_OK) {
+                memcpy(target, p, sizeof p);
+                memcpy(cur, p, sizeof p);
+                budget += 2u * TICK_HZ;
+            }
+            break;
+        }
+        case 6: /* out-of-range move: refused, nothing changes */
+        {
+            pk_um_t p[PK_AXES] = { PK_UM_MAX + 1, 0, 0 };
+            r = pk_machine_move(&MACH, p, 1000u, PK_MOVE_FEED);
+            FZ_CHECK(r == PK_MOTION_ERANGE || r == PK_MOTION_EALARM || r == PK_MOTION_EFULL,
+                     "an out-of-range target is refused");
+            r = pk_machine_move(&MACH, cur, 0u, PK_MOVE_FEED); /* feed 0: out of range */
+            FZ_CHECK(r == PK_MOTION_ERANGE || r == PK_MOTION_EALARM || r == PK_MOTION_EFULL,
+                     "a zero feed is refused");
+            r = PK_MOTION_OK;
+            break;
+        }
+        case 7:
+            r = pk_machine_pen(&MACH, (op >> 4) & 1u);
+            budget += TICK_HZ / 10u;
+            break;
+        case 8:
+            r = pk_machine_dwell(&MACH, fz_u8(&in) & 31u);
+            budget += TICK_HZ / 10u;
+            break;
+        case 9: {
+            struct pk_smooth_cfg s = CFG.smooth;
+            uint8_t x = fz_u8(&in);
+            s.mode = x % 3u;
+            s.depth = (x >> 2) & 3u;
+            s.tolerance_um = 1 + (x >> 4) * 50;
+            r = pk_machine_set_smoothing(&MACH, &s);
+            if (r == PK_MOTION_EINVAL)
+                r = PK_MOTION_OK;
+            break;
+        }
+        case 10:
+            r = pk_machine_end(&MACH);
+            break;
+        case 11: /* time passes */
+            poll_for(((uint64_t)fz_u8(&in) + 1u) * 1000u);
+            break;
+        case 12:
+            pk_machine_hold(&MACH);
+            poll_for(((uint64_t)fz_u8(&in) & 63u) * 1000u);
+            pk_machine_resume(&MACH);
+            break;
+        case 13: { /* reset at this moment */
+            do_reset();
+            check_position();
+            pk_steps_t p[PK_AXES];
+            pk_machine_position_steps(&MACH, p);
+            if (!H.failed)
+                FZ_CHECK(pk_machine_state(&MACH) == PK_STATE_IDLE, "reset leaves an idle machine");
+            /* the next moves start where the machine really is */
+            pk_machine_position_um(&MACH, cur);
+            memcpy(target, cur, sizeof cur);
+            for (unsigned a = 0; a < PK_AXES; a++) /* target = the steps we are on */
+                if (oracle_steps(cur[a], CFG.steps_per_mm_q16[a]) != p[a])
+                    target[a] = PK_UM_MAX + 1; /* not representable: compare steps below */
+            break;
+        }
+        case 14: /* a HAL write fails after k more writes */
+            H.fail_after = fz_u8(&in);
+            break;
+        default: /* the main loop runs once */
+            poll_for(1000u);
+            break;
+        }
+        if (r == PK_MOTION_EFULL)
+            poll_for(1000u); /* nothing changed: the producer waits */
+        if (pk_machine_state(&MACH) == PK_STATE_ALARM) {
+            FZ_CHECK(H.failed, "ALARM only after a failing HAL write");
+            check_position();
+            pk_um_t p[PK_AXES] = { 0, 0, 0 };
+            FZ_CHECK(pk_machine_move(&MACH, p, 1000u, PK_MOVE_FEED) == PK_MOTION_EALARM,
+                     "ALARM refuses moves");
+        }
+        if (H.failed) { /* the fault happened: run to ALARM, then reset as a user would */
+            poll_for(2000u);
+            FZ_CHECK(pk_machine_state(&MACH) == PK_STATE_ALARM, "a failed write ends in ALARM");
+            check_position();
+            H.fail_after = -1;
+            H.failed = 0;
+            do_reset();
+            pk_steps_t p[PK_AXES];
+            pk_machine_position_steps(&MACH, p);
+            pk_machine_position_um(&MACH, cur);
+            memcpy(target, cur, sizeof cur);
+            for (unsigned a = 0; a < PK_AXES; a++)
+                if (oracle_steps(cur[a], CFG.steps_per_mm_q16[a]) != p[a])
+                    target[a] = PK_UM_MAX + 1;
+        }
+    }
+    /* Finish: end the program, no more faults, run until idle. */
+    H.fail_after = -1;
+    pk_machine_resume(&MACH);
+    while (pk_machine_end(&MACH) == PK_MOTION_EFULL)
+        poll_for(1000u);
+    uint64_t limit = H.now + budget + 5u * TICK_HZ;
+    while (H.now < limit) {
+        poll_for(1000u);
+        if (pk_machine_state(&MACH) == PK_STATE_IDLE && H.cb == NULL && pk_machine_room(&MACH) == PK_MACHINE_INQ)
+            break;
+    }
+    if (pk_machine_state(&MACH) != PK_STATE_IDLE)
+        fprintf(stderr, "after %.3f s (budget %.3f s): state %d alarm %d, queue %u, room %u, timer %s\n",
+                (double)H.now / TICK_HZ, (double)budget / TICK_HZ, (int)pk_machine_state(&MACH),
+                (int)pk_machine_alarm(&MACH), (unsigned)pk_machine_queue_fill(&MACH),
+                (unsigned)pk_machine_room(&MACH), H.cb ? "armed" : "stopped");
+    FZ_CHECK(pk_machine_state(&MACH) == PK_STATE_IDLE, "the machine finishes the program");
+    check_position();
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&MACH, p);
+    for (unsigned a = 0; a < CFG.axes; a++)
+        if (target[a] <= PK_UM_MAX) {
+            if (p[a] != oracle_steps(target[a], CFG.steps_per_mm_q16[a]))
+                fprintf(stderr, "axis %u: at %d steps, commanded %d um = %lld steps\n", a, (int)p[a],
+                        (int)target[a], (long long)oracle_steps(target[a], CFG.steps_per_mm_q16[a]));
+            FZ_CHECK(p[a] == oracle_steps(target[a], CFG.steps_per_mm_q16[a]),
+                     "the final position is exactly the commanded one, in steps");
+        }
+    if (getenv("FUZZ_MOTION_VERBOSE"))
+        fprintf(stderr, "axes %u: %llu step edges, %.3f s simulated, position %d %d %d steps\n",
+                CFG.axes, (unsigned long long)H.edges, (double)H.now / TICK_HZ, (int)p[0], (int)p[1],
+                (int)p[2]);
+    return 0;
+}
