@@ -705,7 +705,10 @@ uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)
      * finish releases each level's tail: at most 4 points per level for open
      * strokes (the clamped cubic's V, T', E, P), and for closed strokes the
      * replayed first points, at most PK_CLOSE_MAX, each refined 2^depth-fold.
-     * Measured maxima are at or below these (tests/test_refine.c). */
+     * The limit stage adds at most one burst of PK_LWIN anchors per stroke
+     * (when an open polygon first has enough points to tell its ends).
+     * Measured maxima are at or below these (tests/test_refine.c, fuzz_refine). */
     unsigned d = cfg->depth > PK_MAX_DEPTH ? PK_MAX_DEPTH : cfg->depth;
-    return (cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d;
+    uint32_t burst = (cfg->limit || cfg->tangents) ? (uint32_t)PK_LWIN : 0u;
+    return ((cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d) + burst;
 }

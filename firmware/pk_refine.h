@@ -199,10 +199,12 @@ void pk_refine_reset(struct pk_refine *r);
 /**
  * Upper bound on the points pk_refine_pull can deliver between one
  * PK_NEED_INPUT (or the start) and the next. After a push it is exactly
- * 2^depth in steady state; after pk_refine_finish it is at most
- * 4 * 2^depth for open strokes and (PK_CLOSE_MAX + 1) * 2^depth for closed
- * ones. This returns the larger, so a consumer with this much room never has
- * to stop mid-stroke (stopping anyway is always safe).
+ * 2^depth in steady state (plus, with limit/tangents, one burst of at most
+ * PK_LWIN once per stroke, when an open polygon first has enough points to
+ * tell its ends); after pk_refine_finish it is at most 4 * 2^depth for open
+ * strokes and (PK_CLOSE_MAX + 1) * 2^depth for closed ones (plus the same
+ * PK_LWIN with limit). This returns the larger, so a consumer with this much
+ * room never has to stop mid-stroke (stopping anyway is always safe).
  */
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg);
 

@@ -18,9 +18,10 @@
  * The pty survives client disconnects (we hold our own slave fd open), so a
  * sender can disconnect and reconnect. serve counts the clients that have the
  * pty open (inotify IN_OPEN / IN_CLOSE on the slave's inode; our own slave fd
- * was opened before the watch) and drops output only while that count is
- * zero: answers a client left unread when it went are gone before the next
- * one connects, and a client that is merely slow never loses a byte (a lost
+ * was opened before the watch) and drops output only once nobody has had the
+ * pty open for a whole second: a sender that reconnects at once still gets
+ * the answers to what it sent, a client connecting later does not start with
+ * stale lines, and a client that is merely slow never loses a byte (a lost
  * `ok` would hang a character-counting sender). The events are read at the
  * top of every loop iteration, before the line is read, and a client's open
  * is queued before anything it writes, so its first answer is never dropped.
@@ -160,6 +161,7 @@ int cmd_serve(int argc, char **argv)
     /* A client opening the slave is what makes unread output stale. */
     int opens = device ? -1 : inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
     unsigned long clients = 0, connections = 0;
+    uint64_t alone_since = 0; /* wall ns since the pty has had no client; 0: has one */
     if (opens >= 0 && inotify_add_watch(opens, ser.path, IN_OPEN | IN_CLOSE) < 0) {
         close(opens);
         opens = -1;
@@ -185,8 +187,12 @@ int cmd_serve(int argc, char **argv)
                     q += sizeof *e + e->len;
                 }
             }
-            if (clients == 0)
-                pk_serial_discard_unread(&ser); /* nobody is there to read it */
+            if (clients > 0)
+                alone_since = 0;
+            else if (alone_since == 0)
+                alone_since = now_ns();
+            else if (now_ns() - alone_since >= 1000000000ull)
+                pk_serial_discard_unread(&ser); /* nobody has been there for 1 s */
         }
         uint64_t rx0 = ser.rx_bytes;
         if (pk_serial_pump(&ser, &sim->uart) != 0) {

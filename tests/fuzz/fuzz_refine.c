@@ -88,7 +88,8 @@ static unsigned reference_run(const struct pk_refine_cfg *cfg, unsigned m)
     static struct pk_refine ref;
     FZ_CHECK(pk_refine_init(&ref, cfg) == PK_OK, "a configuration that initialised once must again");
     unsigned n = 0;
-    const uint32_t push_bound = 1u << cfg->depth, fin_bound = pk_refine_max_release(cfg);
+    const uint32_t push_bound = (1u << cfg->depth) + (cfg->limit || cfg->tangents ? PK_LWIN : 0u),
+                   fin_bound = pk_refine_max_release(cfg);
     for (unsigned i = 0; i <= m; i++) {
         if (i < m)
             FZ_CHECK(pk_refine_push(&ref, PTS[i]) == PK_OK, "push after PK_NEED_INPUT is accepted");
