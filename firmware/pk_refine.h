@@ -174,6 +174,9 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg);
  * @retval PK_ERANGE   a coordinate is out of range; the stream is unchanged
  * @retval PK_ESTATE   the stroke is finishing; pull until PK_END first
  * @retval PK_ETOOLONG closed stroke with more than PK_CLOSED_MAX_POINTS points
+ * The checks come in the order listed (PK_ESTATE, then PK_EBUSY, then
+ * PK_ERANGE): a bad point offered while the slot is busy gets PK_EBUSY
+ * first. Every non-PK_OK answer leaves the stream unchanged.
  */
 int pk_refine_push(struct pk_refine *r, const pk_um_t p[PK_AXES]);
 
