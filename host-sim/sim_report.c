@@ -58,8 +58,11 @@ void pk_sim_print_summary(FILE *f, const struct pk_sim_result *r, unsigned axes,
     fprintf(f, "\n  max acceleration  ");
     for (unsigned a = 0; a < axes; a++)
         fprintf(f, "%c %.0f mm/s^2  ", an[a], r->max_accel_mm_s2[a]);
+    fprintf(f, "(per axis over 16 steps: junction speed jumps count too)");
     if (r->deviation_um >= 0.0)
-        fprintf(f, "\n  path deviation    %.4f mm (executed steps vs commanded path)", r->deviation_um / 1000.0);
+        fprintf(f, "\n  path deviation    %.4f mm (executed steps vs the programmed polyline: with "
+                   "smoothing on, this includes the intended rounding of corners)",
+                r->deviation_um / 1000.0);
     fprintf(f, "\n  timing violations %zu (%s limits)\n", r->dec.n_viol, driver);
     size_t show = r->dec.n_viol < 20u ? r->dec.n_viol : 20u;
     for (size_t i = 0; i < show; i++) {
