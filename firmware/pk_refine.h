@@ -36,8 +36,9 @@
  * Exactness: see pk_refine.c for the full argument. In short, points are
  * carried in pk_w8_t (8 guard bits below the micrometre) and every mask sum is
  * formed exactly and rounded once per level at 1/256 µm, then once more to
- * whole micrometres on output. Every output is within 0.5 LSB + depth * 2^-8
- * LSB of the exact rational result (bound stated per scheme in the tests);
+ * whole micrometres on output. Every output is within 0.5 + depth/512 LSB of
+ * the exact rational result for the B-splines and 0.5 + (1.25^depth - 1)/128
+ * LSB for DLG (tests/test_vectors.c checks exactly these bounds);
  * rounding is ties-away-from-zero, so mirroring the input about an axis
  * mirrors the output exactly and reversing it reverses the output exactly.
  */
