@@ -82,10 +82,13 @@ int pk_limit_setup(struct pk_refine *r)
         if (r->close_c > PK_CLOSE_MAX)
             return PK_ENOTSUP;
         ls->lag = (int8_t)(-1 + lo); /* first anchor: a0 = -lo */
+        r->lim_thr = (uint8_t)hi;      /* a full stencil has arrived */
     } else {
-        if (open_threshold(ru) - lo > PK_LWIN - 1 || ru->min_n > PK_LWIN)
+        int thr = open_threshold(ru);
+        if (thr - lo > PK_LWIN - 1 || ru->min_n > PK_LWIN)
             return PK_ENOTSUP;
         ls->lag = -1;
+        r->lim_thr = (uint8_t)thr;     /* ... and the anchor is not an end one */
     }
     r->lim_rule = ru;
     return PK_OK;
@@ -110,9 +113,7 @@ static int lim_remaining(const struct pk_refine *r)
     const struct pk_limit_stage *ls = &r->lim;
     const struct pk_limit_rule *ru = rule_of(r);
     if (r->cfg.closed) {
-        int hi, lo;
-        rule_reach(ru, &hi, &lo);
-        int k = ls->lag - hi + 1;
+        int k = ls->lag - (int)r->lim_thr + 1;
         return k > 0 ? k : 0;
     }
     if (ls->n <= 2u)
@@ -162,12 +163,9 @@ static int lim_released(const struct pk_refine *r)
     const struct pk_limit_rule *ru = rule_of(r);
     if (lim_fin(ls))
         return lim_remaining(r) > 0;
-    if (r->cfg.closed) {
-        int hi, lo;
-        rule_reach(ru, &hi, &lo);
-        return ls->lag >= hi;
-    }
-    return ls->n >= ru->min_n && ls->n >= 3u && ls->lag >= open_threshold(ru);
+    if (r->cfg.closed)
+        return ls->lag >= (int)r->lim_thr;
+    return ls->n >= ru->min_n && ls->n >= 3u && ls->lag >= (int)r->lim_thr;
 }
 
 static void lim_advance(struct pk_limit_stage *ls)

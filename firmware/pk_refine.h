@@ -144,7 +144,8 @@ struct pk_refine {
     uint8_t close_i;       /**< closed: replay position */
     uint8_t kind;          /**< what every level does (derived from cfg at init) */
     uint8_t win;           /**< window points this scheme uses (<= PK_WIN) */
-    uint8_t pad_[3];
+    uint8_t lim_thr;       /**< limit stage: lag at which the front anchor is released */
+    uint8_t pad_[2];
     uint32_t m;            /**< points pushed in this stroke (closed: bounded) */
     uint32_t out_done;     /**< points delivered in this stroke (closed only needs it) */
     uint32_t out_left;     /**< closed: outputs still to give (2^depth * m), else UINT32_MAX */
