@@ -18,53 +18,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "grbl_sim.h"
+#define GRBL_FIXTURE_OUT_SIZE (1 << 18)
+#include "grbl_sim_fixture.h"
 #include "motion_run.h"
 #include "th.h"
-
-static struct pk_grbl_sim S;
-static char out[1 << 18];
-static size_t outn;
-
-#define STEP_TICKS 500u
-
-static void drain(void)
-{
-    uint8_t b[128];
-    size_t n;
-    while ((n = pk_uart_tx_pop(&S.uart, b, sizeof b)) > 0) {
-        if (outn + n + 1 < sizeof out) {
-            memcpy(out + outn, b, n);
-            outn += n;
-            out[outn] = 0;
-        }
-    }
-}
-
-static void step(long n)
-{
-    for (long i = 0; i < n; i++) {
-        pk_grbl_sim_step(&S, STEP_TICKS);
-        drain();
-    }
-}
-
-static void send(const char *s)
-{
-    for (; *s; s++) {
-        for (int spins = 0; pk_uart_rx_space(&S.uart) == 0 && spins < 100000; spins++)
-            step(1);
-        pk_uart_rx_push(&S.uart, (uint8_t)*s);
-    }
-}
-
-static int count(const char *hay, const char *needle)
-{
-    int c = 0;
-    for (const char *p = hay; (p = strstr(p, needle)) != NULL; p += strlen(needle))
-        c++;
-    return c;
-}
 
 static long pin_steps(unsigned axis)
 {

@@ -11,35 +11,11 @@
 #include <stdlib.h>
 #include <string.h>
 #include "th.h"
-#include "grbl_sim.h"
+#define GRBL_FIXTURE_OUT_SIZE (1 << 16)
+#include "grbl_sim_fixture.h"
 #include "sim_job.h"
 
 int th_main(int argc, char **argv);
-
-static struct pk_grbl_sim S;
-static char out[1 << 16];
-static size_t outn;
-
-static void drain(void)
-{
-    uint8_t b[128];
-    size_t n;
-    while ((n = pk_uart_tx_pop(&S.uart, b, sizeof b)) > 0) {
-        if (outn + n + 1 < sizeof out) {
-            memcpy(out + outn, b, n);
-            outn += n;
-            out[outn] = 0;
-        }
-    }
-}
-
-static int count(const char *hay, const char *needle)
-{
-    int c = 0;
-    for (const char *p = hay; (p = strstr(p, needle)) != NULL; p += strlen(needle))
-        c++;
-    return c;
-}
 
 /* Send one line to the engine and run until it is answered; returns the
  * answer ("ok" or "error:N"), or "" if none came within 2 s simulated. */
