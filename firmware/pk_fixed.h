@@ -51,6 +51,9 @@ static inline int64_t pk_rshift_round64(int64_t x, unsigned s)
     return x >= 0 ? (x + half) >> s : -((-x + half) >> s);
 }
 
+/** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
+uint32_t pk_isqrt64(uint64_t x);
+
 /** Round x / d to nearest, ties away from zero. d > 0, |x| < 2^62. */
 static inline int64_t pk_div_round64(int64_t x, int64_t d)
 {

@@ -218,23 +218,6 @@ void pk_limit_finish(struct pk_refine *r)
     lim_settle(r);
 }
 
-static uint64_t isqrt_u64(uint64_t v)
-{
-    uint64_t res = 0, bit = (uint64_t)1 << 62;
-    while (bit > v)
-        bit >>= 2;
-    while (bit != 0u) {
-        if (v >= res + bit) {
-            v -= res + bit;
-            res = (res >> 1) + bit;
-        } else {
-            res >>= 1;
-        }
-        bit >>= 2;
-    }
-    return res;
-}
-
 void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t)
 {
     uint64_t mx = 0;
@@ -261,7 +244,7 @@ void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t)
         v[a] = sh ? pk_rshift_round64(d[a], (unsigned)sh) : d[a] * ((int64_t)1 << up);
         ss += (uint64_t)(v[a] < 0 ? -v[a] : v[a]) * (uint64_t)(v[a] < 0 ? -v[a] : v[a]);
     }
-    int64_t len = (int64_t)isqrt_u64(ss);
+    int64_t len = (int64_t)pk_isqrt64(ss);
     if (len == 0)
         return;
     for (unsigned a = 0; a < dims; a++)

@@ -1,26 +1,9 @@
 /*
- * pk_munits.c — integer square root and the µm <-> step conversions of the
- * motion core (see pk_munits.h for the formats and ranges).
+ * pk_munits.c — the µm <-> step conversions of the motion core (see
+ * pk_munits.h for the formats and ranges; the integer square root the motion
+ * core uses, pk_isqrt64, is shared with the kernel in pk_fixed.c).
  */
 #include "pk_munits.h"
-
-uint32_t pk_isqrt64(uint64_t x)
-{
-    /* Classic digit-by-digit method: 32 iterations, shifts and compares only. */
-    uint64_t res = 0, bit = (uint64_t)1 << 62;
-    while (bit > x)
-        bit >>= 2;
-    while (bit != 0) {
-        if (x >= res + bit) {
-            x -= res + bit;
-            res = (res >> 1) + bit;
-        } else {
-            res >>= 1;
-        }
-        bit >>= 2;
-    }
-    return (uint32_t)res;
-}
 
 pk_steps_t pk_um_to_steps(pk_um_t um, pk_spmm_q16_t spmm)
 {

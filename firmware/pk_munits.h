@@ -55,9 +55,6 @@ typedef uint64_t pk_tq8_t;
 #define PK_BARRIER() ((void)0)
 #endif
 
-/** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
-uint32_t pk_isqrt64(uint64_t x);
-
 /** Absolute step position of a coordinate: round(um * spmm / 1000) with ties
  *  away from zero. |um| <= PK_UM_MAX and spmm <= PK_SPMM_Q16_MAX keep the
  *  product below 2^21 * 2^30 = 2^51. */
