@@ -11,6 +11,7 @@
  * streaming with arbitrary pauses, the release bound, and range rejection.
  */
 #include "pk_refine.h"
+#include "refine_spec.h"
 #include "th.h"
 
 #define MAXOUT 6000
@@ -147,30 +148,6 @@ static struct pk_refine_cfg cfg_of(const struct variant *v, unsigned depth, unsi
     return c;
 }
 
-/* Expected point count after one level, as the issue specifies. */
-static uint32_t level_count(const struct variant *v, uint32_t m)
-{
-    if (v->closed)
-        return m <= 1u ? m : 2u * m;
-    if (m <= 2u)
-        return m;
-    if (v->scheme == PK_SCHEME_DLG)
-        return 2u * m - 1u;
-    int32_t D = v->degree, plain = 2 * (int32_t)m - D;
-    switch (v->ends) {
-    case PK_ENDS_CLAMPED:
-        if (D == 1)
-            return 2u * m - 1u;
-        if (D == 2)
-            return 2u * m - 2u;
-        return m == 3u ? 4u : 2u * m - 3u; /* cubic; 3 points: quadratic */
-    case PK_ENDS_REPLACE:
-        return plain < 2 ? 2u : (uint32_t)plain;
-    default:
-        return plain < 0 ? 0u : (uint32_t)plain;
-    }
-}
-
 static int pt_eq(const struct pk_refine_out *a, const struct pk_refine_out *b, unsigned dims)
 {
     for (unsigned k = 0; k < dims; k++)
@@ -209,7 +186,7 @@ static void test_every_scheme_gives_the_specified_point_count_per_level(void)
             for (unsigned m = 0; m <= 9u; m++) {
                 uint32_t want = m;
                 for (unsigned l = 0; l < depth; l++)
-                    want = level_count(&v[k], want);
+                    want = spec_level_count(v[k].scheme, v[k].degree, v[k].closed, v[k].ends, want);
                 struct pk_refine_cfg c = cfg_of(&v[k], depth, 2);
                 random_polygon(m, 2, 100000);
                 TH_ASSERT_EQ(run_kernel(&c, IN, m, &RA, 0), PK_OK);

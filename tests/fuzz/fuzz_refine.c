@@ -19,8 +19,9 @@
  *   - pull: never PK_END before finish, never PK_NEED_INPUT after it; every
  *     stroke ends with PK_END within its expected count + 1 pulls.
  *   - the output count equals the issue's per-level count iterated depth
- *     times (level_count, the same rule tests/test_refine.c uses), for every
- *     configuration without the limit stage and for closed ones with it.
+ *     times (spec_level_count in tests/refine_spec.h, shared with
+ *     tests/test_refine.c), for every configuration without the limit
+ *     stage and for closed ones with it.
  *   - B-splines: every output lies inside the bounding box of the stroke's
  *     input, ±1 LSB. DLG: inside the box widened by 0.126 of its width per
  *     side plus 2 LSB (the kernel essay's bound: the composite subdivision
@@ -35,6 +36,7 @@
  */
 #include "fuzz_common.h"
 #include "pk_refine.h"
+#include "refine_spec.h"
 
 #include <string.h>
 
@@ -50,35 +52,10 @@ struct stroke {
     int finished;
 };
 
-/* Expected point count after one level (tests/test_refine.c, the issue). */
-static uint32_t level_count(const struct pk_refine *r, uint32_t m)
-{
-    const struct pk_refine_cfg *c = &r->cfg;
-    if (c->closed)
-        return m <= 1u ? m : 2u * m;
-    if (m <= 2u)
-        return m;
-    if (c->scheme == PK_SCHEME_DLG)
-        return 2u * m - 1u;
-    int32_t D = c->degree, plain = 2 * (int32_t)m - D;
-    switch (r->ends) { /* the effective rule (default resolved by init) */
-    case PK_ENDS_CLAMPED:
-        if (D == 1)
-            return 2u * m - 1u;
-        if (D == 2)
-            return 2u * m - 2u;
-        return m == 3u ? 4u : 2u * m - 3u;
-    case PK_ENDS_REPLACE:
-        return plain < 2 ? 2u : (uint32_t)plain;
-    default:
-        return plain < 0 ? 0u : (uint32_t)plain;
-    }
-}
-
 static uint32_t expected_count(const struct pk_refine *r, uint32_t m)
 {
     for (unsigned l = 0; l < r->cfg.depth; l++)
-        m = level_count(r, m);
+        m = spec_level_count(r->cfg.scheme, r->cfg.degree, r->cfg.closed, r->ends, m);
     return m;
 }
 
