@@ -1,0 +1,487 @@
+/*
+ * pk_refine_span.c — the closed-form span engine: B-spline degrees 1..3,
+ * open with clamped ends or none, and closed curves (the open rule on the
+ * replayed periodic sequence), at any depth K >= 1.
+ *
+ * Output j (0-based, at level K, n = 2^K) of span s (j in [n*s, n*s + n)) is
+ * a polynomial of degree D in j whose coefficients are fixed combinations of
+ * the span's input points Q0..QD = P(s)..P(s+D) (pk_refine.c explains why).
+ * The engine keeps the next output V and its forward differences exactly
+ * (s[0] = V, s[d] = Δ^d V, F fraction bits) and emits "runs": a number of
+ * outputs produced by stepping. Between spans only s[D] changes; these are
+ * the values it takes, per span, in units of 2^F (F = D*K; 3K + 1 for the
+ * clamped cubic), derived and checked against exact refinement by
+ * tests/tools/derive_spans.py:
+ *
+ *   no end rule, closed:  Δ^D (Q0..QD):  D=1 (-1, 1), D=2 (1, -2, 1),
+ *                         D=3 (-1, 3, -3, 1)
+ *   clamped, span s of L = m - D spans, a = min(s, D-1), b = min(L-1-s, D-1):
+ *     D=2 (a,b) = (0,0) (2,-4,2)  (0,1) (2,-3,1)  (1,1) (1,-2,1)
+ *     D=3 (0,0) (-12,36,-36,12)  (0,1) (-12,21,-12,3)  (0,2) (-12,21,-11,2)
+ *         (1,1) (-3,7,-7,3)  (1,2) (-3,7,-6,2)  (2,2) (-2,6,-6,2)
+ *     and (b,a) is (a,b) reversed, negated for odd D (the right end mirrors
+ *     the left).
+ *
+ * The stroke's first state and the clamped ends' D - 1 points at each end
+ * ("specials", whose knots are clamped together) have weights that are
+ * products of n: they are written out below (first_state_*, special points).
+ *
+ * Schedule. Span s of a clamped stroke is a plain interior span only if
+ * b = D - 1, i.e. if input point P(s + 2D - 1) exists; so the engine takes
+ * input points only until it can start the next run, which keeps at most 2D
+ * points (PK_SPAN_WIN) and releases one span (n outputs) per push. At the end
+ * of the stroke it knows L and gives the last spans their end masks. The last
+ * span of a clamped stroke has n + 1 outputs (j up to n*L), the D - 1 right
+ * specials follow; an open stroke without end rule ends with the last span's
+ * D further outputs (its polynomial is still valid there). Strokes of 0..2
+ * points pass through; a clamped cubic stroke of 3 points has a quadratic
+ * first level (the spec refines at the highest degree the points allow), so
+ * it continues as the cubic on that level's 4 points.
+ */
+#include "pk_refine_internal.h"
+
+#include <stddef.h>
+
+#if PK_HAVE_SPAN
+
+#include "pk_rom.h"
+
+/* Phases: which run comes next. */
+enum {
+    PH_START = 0, /* clamped: P0; otherwise the first span */
+    PH_SP1,       /* clamped cubic: output 1 */
+    PH_FIRST,     /* clamped: the first span */
+    PH_SPANS,     /* the next span, or the end */
+    PH_RIGHT,     /* clamped: the right specials (PH_RIGHT + k) */
+    PH_PASS = 8,  /* short stroke: input point PH_PASS + i as it is */
+    PH_DONE = 15
+};
+
+#if PK_SPAN_DMAX >= 2
+/* Δ^D of a clamped span, by (a, b) with a <= b (tables in the header). */
+static const int8_t top2[3][3] PK_ROM = { { 2, -4, 2 }, { 2, -3, 1 }, { 1, -2, 1 } };
+#endif
+#if PK_SPAN_DMAX >= 3
+static const int8_t top3[6][4] PK_ROM = {
+    { -12, 36, -36, 12 }, { -12, 21, -12, 3 }, { -12, 21, -11, 2 },
+    { -3, 7, -7, 3 },     { -3, 7, -6, 2 },    { -2, 6, -6, 2 },
+};
+#endif
+
+static int is_clamped(const struct pk_refine *r)
+{
+    return !r->cfg.closed && r->ends == PK_ENDS_CLAMPED && r->e.sp.D >= 2u;
+}
+
+static pk_umf_t pow2(unsigned k) { return (pk_umf_t)1 << k; }
+
+/* Input point P(i); i in [taken - PK_SPAN_WIN, taken). */
+static const pk_um_t *pt(const struct pk_refine *r, uint32_t i)
+{
+    return r->e.sp.w[PK_SPAN_WIN - (r->taken - i)];
+}
+
+static void take(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    for (unsigned k = 0; k + 1u < PK_SPAN_WIN; k++)
+        for (unsigned a = 0; a < PK_AXES; a++)
+            sp->w[k][a] = sp->w[k + 1u][a];
+    pk_in_take(r, sp->w[PK_SPAN_WIN - 1u]);
+}
+
+/* A run of one fixed point: s[0] = p * 2^F, no differences. */
+static void run_point(struct pk_refine *r, const pk_um_t *p)
+{
+    struct pk_span *sp = &r->e.sp;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        sp->s[0][a] = (pk_umf_t)p[a] * pow2(r->F - sp->g);
+        for (unsigned d = 1; d <= PK_SPAN_DMAX; d++)
+            sp->s[d][a] = 0;
+    }
+    sp->rem = 1;
+}
+
+/* s[D] = sum_i w[i] * Q_i, Q_i = P(s + i); mirrored: w reversed, and negated
+ * for odd D (the D-th difference of a reversed sequence is (-1)^D times the
+ * reversed one). w is read from flash. */
+static void set_top(struct pk_refine *r, uint32_t s, const int8_t *w, int mirror)
+{
+    struct pk_span *sp = &r->e.sp;
+    unsigned D = sp->D;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        pk_umf_t acc = 0;
+        for (unsigned i = 0; i <= D; i++) {
+            int wi = mirror ? PK_ROM_I8(&w[D - i]) : PK_ROM_I8(&w[i]);
+            if (mirror && (D & 1u))
+                wi = -wi;
+            acc += (pk_umf_t)wi * pt(r, s + i)[a];
+        }
+        sp->s[D][a] = acc;
+    }
+}
+
+/* The plain interior span's Δ^D: the binomial D-th difference, times 2 for
+ * the clamped cubic's scale (its F has one bit more). */
+static void set_top_uniform(struct pk_refine *r, uint32_t s)
+{
+    static const int8_t plain[3][4] PK_ROM = { { -1, 1 }, { 1, -2, 1 }, { -1, 3, -3, 1 } };
+    const struct pk_span *sp = &r->e.sp;
+#if PK_SPAN_DMAX >= 3
+    if (sp->D == 3u && is_clamped(r)) {
+        set_top(r, s, top3[5], 0);
+        return;
+    }
+#endif
+    set_top(r, s, plain[sp->D - 1u], 0);
+}
+
+#if PK_SPAN_DMAX >= 2
+static void set_top_clamped(struct pk_refine *r, uint32_t s, unsigned a, unsigned b)
+{
+    int mirror = a > b;
+    unsigned lo = mirror ? b : a, hi = mirror ? a : b;
+#if PK_SPAN_DMAX >= 3
+    if (r->e.sp.D == 3u) {
+        unsigned idx = lo == 0u ? hi : lo == 1u ? 2u + hi : 5u;
+        set_top(r, s, top3[idx], mirror);
+        return;
+    }
+#endif
+    set_top(r, s, top2[lo + hi], mirror);
+}
+#endif
+
+/* ---- first states (depth-dependent weights; n = 2^K) ------------------------ */
+
+/* No end rule (and closed), span 0 at j = 0: V, Δ^1 .. Δ^(D-1). */
+static void first_state_plain(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned K = r->e.sp.K;
+    const pk_umf_t n = pow2(K);
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        pk_umf_t q0 = pt(r, 0)[a], q1 = pt(r, 1)[a];
+        switch (sp->D) {
+#if PK_SPAN_DMAX >= 3
+        case 3: {
+            pk_umf_t q2 = pt(r, 2)[a];
+            int32_t nn = (int32_t)n;
+            int32_t c0 = nn * (nn + 1) * (nn + 2) / 6, c2 = nn * (nn - 1) * (nn - 2) / 6;
+            int32_t c1 = nn * nn * nn - c0 - c2;
+            sp->s[0][a] = c0 * q0 + c1 * q1 + c2 * q2;
+            sp->s[1][a] = (pk_umf_t)(nn * (nn - 1) / 2) * (q2 - q1) + (pk_umf_t)(nn * (nn + 1) / 2) * (q1 - q0);
+            sp->s[2][a] = n * (q0 - 2 * q1 + q2);
+            break;
+        }
+#endif
+#if PK_SPAN_DMAX >= 2
+        case 2: /* V = n/2 ((n+1) Q0 + (n-1) Q1), Δ = n (Q1 - Q0) */
+            sp->s[0][a] = ((n + 1) * q0 + (n - 1) * q1) * pow2(K - 1u);
+            sp->s[1][a] = (q1 - q0) * n;
+            break;
+#endif
+        default: /* D = 1: V = n Q0 */
+            sp->s[0][a] = q0 * n;
+            break;
+        }
+    }
+}
+
+#if PK_SPAN_DMAX >= 2
+/* Clamped, span 0 at j = D - 1, for a stroke of L spans (only L <= D - 1
+ * changes the weights). */
+static void first_state_clamped(struct pk_refine *r, uint32_t L)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned K = r->e.sp.K;
+    const pk_umf_t n = pow2(K);
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        pk_umf_t q0 = pt(r, 0)[a], q1 = pt(r, 1)[a], q2 = pt(r, 2)[a];
+#if PK_SPAN_DMAX >= 3
+        if (sp->D == 3u) {
+            pk_umf_t q3 = pt(r, 3)[a];
+            int32_t nn = (int32_t)n;
+            pk_umf_t v1 = L == 1u ? 6 * nn * nn - 8 * nn : 6 * nn * (nn - 1);
+            sp->s[0][a] = (pk_umf_t)(2 * nn * (nn - 1) * (nn - 2)) * q0 + v1 * q1 + (L == 1u ? 4 : 2) * nn * q2;
+            /* Δ^1 and Δ^2 rows (derive_spans.py), each summing to zero */
+            int32_t d1_1 = L == 1u ? 6 * nn * nn - 36 * nn + 36 : 6 * nn * nn - 27 * nn + 21;
+            int32_t d1_2 = L == 1u ? 18 * nn - 36 : L == 2u ? 9 * nn - 12 : 9 * nn - 11;
+            int32_t d1_3 = L == 1u ? 12 : L == 2u ? 3 : 2;
+            sp->s[1][a] = (pk_umf_t)(-6 * (nn - 1) * (nn - 2)) * q0 + (pk_umf_t)d1_1 * q1 +
+                          (pk_umf_t)d1_2 * q2 + (pk_umf_t)d1_3 * q3;
+            int32_t d2_1 = L == 1u ? 72 - 24 * nn : 42 - 18 * nn;
+            int32_t d2_2 = L == 1u ? 12 * nn - 72 : L == 2u ? 6 * nn - 24 : 6 * nn - 22;
+            int32_t d2_3 = L == 1u ? 24 : L == 2u ? 6 : 4;
+            sp->s[2][a] = (pk_umf_t)(12 * nn - 24) * q0 + (pk_umf_t)d2_1 * q1 + (pk_umf_t)d2_2 * q2 +
+                          (pk_umf_t)d2_3 * q3;
+            continue;
+        }
+#endif
+        /* D = 2, j = 1: V = n ((n-1) Q0 + Q1); Δ = 2(n-1)(Q1-Q0) + (Q2-Q1) [L = 1: 2(Q2-Q1)] */
+        sp->s[0][a] = ((n - 1) * q0 + q1) * n;
+        sp->s[1][a] = 2 * (n - 1) * (q1 - q0) + (L == 1u ? 2 : 1) * (q2 - q1);
+    }
+}
+
+/* (1 - h) A + h B, h = 2^-K, in units of 2^F (F = 2K or 3K + 1). */
+static void run_lerp(struct pk_refine *r, const pk_um_t *A, const pk_um_t *B)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned K = sp->K;
+    const pk_umf_t n = pow2(K);
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        sp->s[0][a] = ((n - 1) * A[a] + B[a]) * pow2(r->F - K - sp->g);
+        for (unsigned d = 1; d <= PK_SPAN_DMAX; d++)
+            sp->s[d][a] = 0;
+    }
+    sp->rem = 1;
+}
+#endif
+
+void pk_span_setup(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    sp->D = r->D;
+    sp->K = r->cfg.depth;
+    sp->ph = PH_START;
+    r->F = (uint8_t)(sp->D * r->cfg.depth + (sp->D == 3u && is_clamped(r) ? 1u : 0u));
+}
+
+/* A new span run: n outputs (clamped last span n + 1); closed fast streams
+ * clip to what is left of the 2^K * m. */
+static int start_run(struct pk_refine *r, uint32_t len)
+{
+    struct pk_span *sp = &r->e.sp;
+    if (r->fast && r->cfg.closed) {
+        if (len > r->out_left)
+            len = r->out_left;
+        if (r->out_left != UINT32_MAX)
+            r->out_left -= len;
+        r->out_done += len;
+    }
+    sp->rem = len;
+    return len > 0u;
+}
+
+/* Set up the next run from what has been taken. 1: run ready (or an empty
+ * one to skip: call again), 0: one more input point needed, -1: done. */
+static int span_try(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    const uint32_t T = r->taken, n = (uint32_t)1 << sp->K;
+    const int end = pk_in_exhausted(r);
+    const unsigned D = sp->D;
+
+    if (r->cfg.closed && r->fast && r->out_left == 0u)
+        return -1;
+    if (sp->ph >= PH_PASS) { /* short stroke: its points as they are */
+        uint32_t i = sp->ph - PH_PASS;
+        if (sp->ph == PH_DONE || i >= T)
+            return -1;
+        run_point(r, pt(r, i));
+        sp->ph++;
+        start_run(r, 1);
+        return 1;
+    }
+#if PK_SPAN_DMAX >= 2
+    if (is_clamped(r)) {
+        switch (sp->ph) {
+        case PH_START:
+            if (T < 1u)
+                return end ? -1 : 0;
+            if (end && T <= 2u) { /* 1 or 2 points: as they are */
+                sp->ph = PH_PASS;
+                return span_try(r);
+            }
+            run_point(r, pt(r, 0));
+            sp->ph = D == 3u ? PH_SP1 : PH_FIRST;
+            start_run(r, 1);
+            return 1;
+#if PK_SPAN_DMAX >= 3
+        case PH_SP1:
+            if (T < 3u) {
+                if (!end)
+                    return 0;
+                sp->ph = T == 2u ? PH_PASS + 1 : PH_DONE; /* 2 points: P1 as it is */
+                return span_try(r);
+            }
+            run_lerp(r, pt(r, 0), pt(r, 1));
+            sp->ph = PH_FIRST;
+            start_run(r, 1);
+            return 1;
+#endif
+        case PH_FIRST: {
+            if (T < 2u * D && !end)
+                return 0;
+            if (T < 3u) { /* ended at 2 points (D = 2): P1 as it is */
+                sp->ph = T == 2u ? PH_PASS + 1 : PH_DONE;
+                return span_try(r);
+            }
+            if (D == 3u && T == 3u) {
+                /* 3 points: the first level is the clamped quadratic (P0, M0,
+                 * M1, P2), the others the cubic on those 4 points: continue
+                 * as a 4-point cubic stroke of depth K - 1. Its own F would
+                 * be 3K - 2; the points are stored times 8 (integers with 3
+                 * fraction bits) so that its values keep the stroke's
+                 * F = 3K + 1 (the limit stage combines them with the ones
+                 * already given). Outputs 0 and 1 are already right:
+                 * (1 - 2h) P0 + 2h M0 = (1 - h) P0 + h P1. */
+                pk_um_t q[4][PK_AXES];
+                for (unsigned a = 0; a < PK_AXES; a++) {
+                    q[0][a] = 8 * pt(r, 0)[a];
+                    q[1][a] = 4 * (pt(r, 0)[a] + pt(r, 1)[a]);
+                    q[2][a] = 4 * (pt(r, 1)[a] + pt(r, 2)[a]);
+                    q[3][a] = 8 * pt(r, 2)[a];
+                }
+                for (unsigned i = 0; i < 4u; i++)
+                    for (unsigned a = 0; a < PK_AXES; a++)
+                        sp->w[PK_SPAN_WIN - 4u + i][a] = q[i][a];
+                r->taken = 4;
+                sp->K = (uint8_t)(sp->K - 1u);
+                sp->g = 3;
+                return span_try(r);
+            }
+            uint32_t L = end ? T - sp->D : 2u * D; /* L >= D when not known */
+            first_state_clamped(r, L);
+            if (L == 1u)
+                set_top_clamped(r, 0, 0, 0);
+            else
+                set_top_clamped(r, 0, 0, L - 1u < sp->D - 1u ? L - 1u : sp->D - 1u);
+            sp->blk = 0;
+            sp->ph = PH_SPANS;
+            /* span 0 runs from j = D - 1 to n - 1, or to n if it is the last */
+            uint32_t len = n - (sp->D - 1u) + (L == 1u ? 1u : 0u);
+            start_run(r, len);
+            return 1;
+        }
+        case PH_SPANS: {
+            uint32_t s = sp->blk + 1u;
+            if (end && s + sp->D >= T) { /* s = L: the right specials */
+                sp->ph = PH_RIGHT;
+                return span_try(r);
+            }
+            if (T < s + 2u * sp->D && !end)
+                return 0;
+            uint32_t L = end ? T - sp->D : s + sp->D; /* only b matters */
+            uint32_t b = L - 1u - s < sp->D - 1u ? L - 1u - s : sp->D - 1u;
+            uint32_t a = s < sp->D - 1u ? s : sp->D - 1u;
+            if (a == sp->D - 1u && b == sp->D - 1u)
+                set_top_uniform(r, s);
+            else
+                set_top_clamped(r, s, a, b);
+            sp->blk = s;
+            start_run(r, b == 0u ? n + 1u : n);
+            return 1;
+        }
+        case PH_RIGHT: /* j = nL + 1: (1-h) P(m-1) + h P(m-2) (cubic), then P(m-1) */
+#if PK_SPAN_DMAX >= 3
+            if (sp->D == 3u) {
+                run_lerp(r, pt(r, T - 1u), pt(r, T - 2u));
+                sp->ph = PH_RIGHT + 1;
+                start_run(r, 1);
+                return 1;
+            }
+#endif
+            /* fall through */
+        case PH_RIGHT + 1:
+            run_point(r, pt(r, T - 1u));
+            sp->ph = PH_DONE;
+            start_run(r, 1);
+            return 1;
+        default:
+            return -1;
+        }
+    }
+#endif
+    /* no end rule, closed, and degree 1. Span s is released once P(s + D + 1)
+     * is in (one span per push; an open stroke that ends at 2 points stays
+     * as it is), or at the end once its points are. */
+    if (sp->ph == PH_START || sp->ph == PH_SPANS) {
+        uint32_t s = sp->ph == PH_START ? 0u : sp->blk + 1u;
+        if (sp->ph == PH_START && end && !r->cfg.closed && T <= 2u) {
+            sp->ph = PH_PASS;
+            return span_try(r);
+        }
+        if (T >= s + D + 2u || (end && T >= s + D + 1u)) {
+            if (sp->ph == PH_START)
+                first_state_plain(r);
+            set_top_uniform(r, s);
+            sp->blk = s;
+            sp->ph = PH_SPANS;
+            start_run(r, n);
+            return 1;
+        }
+        if (!end)
+            return 0;
+        if (sp->ph == PH_SPANS) { /* the last span's D further points */
+            sp->ph = PH_DONE;
+            start_run(r, D);
+            return 1;
+        }
+        if (T == 3u && D == 3u) { /* three points stay three at every level: span 0, P3 absent */
+            first_state_plain(r);
+            for (unsigned a = 0; a < PK_AXES; a++)
+                sp->s[D][a] = 0;
+            sp->ph = PH_DONE;
+            start_run(r, D);
+            return 1;
+        }
+        sp->ph = PH_PASS; /* closed: 0 points */
+        return span_try(r);
+    }
+    return -1;
+}
+
+int pk_span_refill(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    while (sp->rem == 0u) {
+        int st = span_try(r);
+        if (st > 0)
+            continue;
+        if (st < 0)
+            return PK_SRC_END;
+        if (!pk_in_ready(r))
+            return PK_SRC_NEED;
+        take(r);
+    }
+    return PK_SRC_OK;
+}
+
+static void step(struct pk_span *sp, unsigned dims)
+{
+    for (unsigned a = 0; a < dims; a++)
+        for (unsigned d = 0; d < sp->D; d++)
+            sp->s[d][a] += sp->s[d + 1u][a];
+}
+
+int pk_span_next(struct pk_refine *r, pk_umf_t v[PK_AXES])
+{
+    struct pk_span *sp = &r->e.sp;
+    int st = pk_span_refill(r);
+    if (st != PK_SRC_OK)
+        return st;
+    sp->rem--;
+    for (unsigned a = 0; a < PK_AXES; a++)
+        v[a] = sp->s[0][a];
+    step(sp, PK_AXES);
+    return PK_SRC_OK;
+}
+
+uint32_t pk_span_emit_block(struct pk_refine *r, pk_um_t *p, uint32_t max)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned dims = r->cfg.dims, f = r->F;
+    const pk_umf_t half = (pk_umf_t)1 << (f - 1u);
+    uint32_t c = sp->rem < max ? sp->rem : max;
+    for (uint32_t i = 0; i < c; i++) {
+        for (unsigned a = 0; a < dims; a++)
+            p[(size_t)i * dims + a] = pk_umf_round(sp->s[0][a], f, half);
+        step(sp, dims);
+    }
+    sp->rem -= c;
+    return c;
+}
+
+#endif
