@@ -232,8 +232,8 @@ static void run_break(struct pk_machine *m)
         run_add(m, m->acc_p[1], false);
 }
 
-int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
-                    enum pk_move_kind kind)
+static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                    enum pk_move_kind kind, pk_um_t chord_err_um)
 {
     if (alarmed(m))
         return PK_MOTION_EALARM;
@@ -269,7 +269,22 @@ int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     for (uint32_t i = 0; i < PK_AXES; i++)
         r->p[i] = i < axes_of(m) ? target[i] : 0;
     r->arg = kind == PK_MOVE_FEED ? feed : 0u;
+    r->chord_err_um = chord_err_um;
     return req_commit(m);
+}
+
+int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                    enum pk_move_kind kind)
+{
+    return move_req(m, target, feed, kind, 0);
+}
+
+int pk_machine_move_chord(struct pk_machine *m, const pk_um_t target[PK_AXES],
+                          pk_um_min_t feed, pk_um_t chord_err_um)
+{
+    if (chord_err_um < 0 || chord_err_um > 10000)
+        return alarmed(m) ? PK_MOTION_EALARM : PK_MOTION_ERANGE;
+    return move_req(m, target, feed, PK_MOVE_FEED, chord_err_um);
 }
 
 int pk_machine_pen(struct pk_machine *m, bool down)

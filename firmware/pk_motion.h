@@ -154,6 +154,7 @@ struct pk_req {
     uint8_t kind;              /**< move kind / pen level */
     pk_um_t p[PK_AXES];        /**< move target, µm */
     uint32_t arg;              /**< feed µm/min, dwell ms */
+    pk_um_t chord_err_um;      /**< feed move: chord error already spent (0: a programmed vertex) */
     struct pk_smooth_cfg smooth;
 };
 
@@ -223,8 +224,8 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
  * Request a straight move to an absolute target (µm, axes beyond cfg.axes
  * ignored). FEED moves join the current stroke (a different feed ends it);
  * RAPID moves end the stroke and run at the axes' max rates (feed ignored).
- * @param feed  µm/min (PK_MOVE_FEED: 1..PK_UM_MIN_MAX; clamped to the axes'
- *              max rates along the move's direction by the planner)
+ * @param feed  µm/min (PK_MOVE_FEED: PK_UM_MIN_MIN..PK_UM_MIN_MAX; clamped to
+ *              the axes' max rates along the move's direction by the planner)
  * @retval PK_MOTION_OK      queued
  * @retval PK_MOTION_EFULL   the request FIFO is full; nothing changed
  * @retval PK_MOTION_ERANGE  a coordinate beyond ±PK_UM_MAX or feed out of range
@@ -233,6 +234,18 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
  */
 int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES],
                     pk_um_min_t feed, enum pk_move_kind kind);
+
+/**
+ * A feed move to a chord vertex of a flattened curve (an arc, a G5/G5.1
+ * Bézier): the chords are within chord_err_um (0..10000) of the programmed
+ * curve, so in tolerance mode the smoother spends only tolerance - chord_err_um
+ * at the vertices next to this move, and the executed path stays within the
+ * tolerance of the programmed curve. Otherwise as pk_machine_move(FEED).
+ * @retval as pk_machine_move; PK_MOTION_ERANGE also for chord_err_um > 10000
+ * Calling context: MAIN.
+ */
+int pk_machine_move_chord(struct pk_machine *m, const pk_um_t target[PK_AXES],
+                          pk_um_min_t feed, pk_um_t chord_err_um);
 
 /** Request pen down (down = true) or up: ends the stroke, brings the machine to
  *  a stop, switches the tool output (cfg.pen_down_level) and dwells
