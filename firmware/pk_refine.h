@@ -38,14 +38,15 @@
  * the exact rational result of the specified refinement (and limit mask),
  * rounded once to the nearest micrometre, ties away from zero: the error is
  * at most 0.5 LSB. Intermediate values are exact dyadic rationals N / 2^F
- * (pk_umf_t); nothing is rounded before the output. Exceptions, where N would
- * need more than 63 bits: B-spline degree 6 at depth 8 and degree 7 at depth
- * 7..8 keep 36 and 35 fraction bits in their last levels (error at most
- * 0.5 + 2^-34 LSB), and limit positions of degrees 5..7 at the depths where
- * the mask sum would overflow drop the excess fraction bits first (at most
- * 0.5 + 2^-26 LSB). Ties-away-from-zero is odd-symmetric, so mirroring the
- * input about an axis mirrors the output exactly and reversing it reverses
- * the output exactly. Unit tangents come from the exact (unrounded) polygon.
+ * (pk_umf_t); nothing is rounded before the output. Two exceptions, where N
+ * would need more than 63 bits: B-spline degree 6 at depth 8 and degree 7 at
+ * depths 7..8 keep 36 and 35 fraction bits in their last levels (error at
+ * most 0.5 + 2^-34 LSB), and limit positions of degrees 5..7 drop the
+ * fraction bits a mask sum could not hold (at most 0.5 + 2^-26 LSB). All
+ * bounds hold over the whole input range (tests/test_vectors.c checks them
+ * exactly). Ties-away-from-zero is odd-symmetric, so mirroring the input
+ * about an axis mirrors the output exactly and reversing it reverses the
+ * output exactly. Unit tangents come from the exact (unrounded) polygon.
  *
  * Builds carry only what they use. The PK_BUILD_* macros below choose the
  * schemes, end rules, closed curves and the limit/tangent stage at compile
