@@ -57,6 +57,7 @@ static void lim_advance(struct pk_limit_stage *ls)
     ls->lag--;
 }
 
+#if PK_LIMIT_TABLES
 /* Index of the most significant set bit + 1 (0 for 0). */
 static unsigned bits_of(uint64_t x)
 {
@@ -69,6 +70,7 @@ static unsigned bits_of(uint64_t x)
 }
 
 static uint64_t mag64(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
+#endif
 
 /* Round s / 2^F (s exact, F + sh fraction bits) to whole µm, ties away. */
 static pk_um_t round_shift(int64_t s, unsigned f)
@@ -78,7 +80,9 @@ static pk_um_t round_shift(int64_t s, unsigned f)
 
 /* ---- Chaikin, written out --------------------------------------------------- */
 
+#if PK_LIMIT_TABLES
 static int is_chaikin(const struct pk_refine *r) { return r->lim.rule == NULL; }
+#endif
 
 /* Anchor a (edge L(a) L(a+1)) may go: both points are in and, on an open
  * stroke, a further point shows it is not the last anchor (whose limit is

@@ -173,6 +173,7 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
     if (c.limit && pk_limit_setup(r) != PK_OK)
         return PK_ENOTSUP;
 #endif
+    r->half = r->F ? (pk_umf_t)1 << (r->F - 1u) : 0;
     r->fast = (uint8_t)(r->engine == PK_ENG_SPAN && !c.limit);
     r->out_left = UINT32_MAX;
     return PK_OK;
@@ -250,8 +251,7 @@ void pk_in_take(struct pk_refine *r, pk_um_t p[PK_AXES])
     }
     for (unsigned a = 0; a < PK_AXES; a++)
         p[a] = src[a];
-    if (r->taken < UINT32_MAX)
-        r->taken++;
+    r->taken++; /* modulo 2^32: the span engine uses differences only */
 }
 
 /* ---- pulling -------------------------------------------------------------- */
@@ -328,12 +328,14 @@ static int pull_one(struct pk_refine *r, struct pk_refine_out *out)
 
 #if PK_HAVE_SPAN
 /* The span engine's current run, one point: round, then step the forward
- * differences (s[d] += s[d+1], lowest first, so each adds the old value). */
-static inline void span_emit1(struct pk_refine *r, struct pk_refine_out *out)
+ * differences (s[d] += s[d+1], lowest first, so each adds the old value).
+ * Straight-line code for the common cases: this is the motion core's loop. */
+static PK_INLINE void span_emit1(struct pk_refine *r, struct pk_refine_out *out)
 {
     struct pk_span *sp = &r->e.sp;
     const unsigned f = r->F;
-    const pk_umf_t half = (pk_umf_t)1 << (f - 1u);
+    const pk_umf_t half = r->half;
+    pk_umf_t(*s)[PK_AXES] = sp->s;
 #if PK_AXES == 2
     const unsigned dims = 2;
 #else
@@ -341,60 +343,83 @@ static inline void span_emit1(struct pk_refine *r, struct pk_refine_out *out)
     out->p[2] = 0;
     out->t[2] = 0;
 #endif
+    const unsigned D = PK_SPAN_ONE_D ? PK_SPAN_ONE_D : sp->D;
     out->t[0] = 0;
     out->t[1] = 0;
-    for (unsigned a = 0; a < dims; a++)
-        out->p[a] = pk_umf_round(sp->s[0][a], f, half);
-#if PK_SPAN_DMAX == 1
-    for (unsigned a = 0; a < dims; a++)
-        sp->s[0][a] += sp->s[1][a];
+#if defined(__AVR__)
+    /* one axis at a time: fewer registers to save on an 8-bit core */
+    for (unsigned a = 0; a < dims; a++) {
+        out->p[a] = pk_umf_round(s[0][a], f, half);
+        for (unsigned d = 0; d < D; d++)
+            s[d][a] += s[d + 1u][a];
+    }
 #else
-    switch (sp->D) {
-#if PK_SPAN_DMAX >= 3
-    case 3:
-        for (unsigned a = 0; a < dims; a++) {
-            sp->s[0][a] += sp->s[1][a];
-            sp->s[1][a] += sp->s[2][a];
-            sp->s[2][a] += sp->s[3][a];
+    out->p[0] = pk_umf_round(s[0][0], f, half);
+    out->p[1] = pk_umf_round(s[0][1], f, half);
+#if PK_SPAN_DMAX >= 2
+    if (D == 2u) {
+        s[0][0] += s[1][0];
+        s[1][0] += s[2][0];
+        s[0][1] += s[1][1];
+        s[1][1] += s[2][1];
+        if (dims > 2u) {
+            out->p[PK_AXES - 1] = pk_umf_round(s[0][PK_AXES - 1], f, half);
+            s[0][PK_AXES - 1] += s[1][PK_AXES - 1];
+            s[1][PK_AXES - 1] += s[2][PK_AXES - 1];
         }
-        break;
-#endif
-    case 2:
-        for (unsigned a = 0; a < dims; a++) {
-            sp->s[0][a] += sp->s[1][a];
-            sp->s[1][a] += sp->s[2][a];
-        }
-        break;
-    default:
-        for (unsigned a = 0; a < dims; a++)
-            sp->s[0][a] += sp->s[1][a];
-        break;
+        return;
     }
 #endif
+    for (unsigned a = 2; a < dims; a++)
+        out->p[a] = pk_umf_round(s[0][a], f, half);
+    for (unsigned a = 0; a < dims; a++)
+        for (unsigned d = 0; d < D; d++)
+            s[d][a] += s[d + 1u][a];
+#endif
+}
+
+/* Everything but the fast path's common case, out of line so that the fast
+ * path stays small. */
+PK_NOINLINE static int pull_more(struct pk_refine *r, struct pk_refine_out *out);
+#else
+#define pull_more pull_general
+#endif
+
+static int pull_general(struct pk_refine *r, struct pk_refine_out *out)
+{
+    int st = pull_one(r, out);
+    if (st == PK_END)
+        pk_refine_reset(r);
+    return st;
+}
+
+#if PK_HAVE_SPAN
+static int pull_more(struct pk_refine *r, struct pk_refine_out *out)
+{
+    if (!r->fast)
+        return pull_general(r, out);
+    int st = pk_span_refill(r);
+    if (st != PK_SRC_OK) {
+        if (st == PK_SRC_END)
+            pk_refine_reset(r);
+        return st;
+    }
+    r->e.sp.rem--;
+    span_emit1(r, out);
+    return PK_OK;
 }
 #endif
 
 int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
 {
 #if PK_HAVE_SPAN
-    if (r->fast) {
-        if (r->e.sp.rem == 0u) {
-            int st = pk_span_refill(r);
-            if (st != PK_SRC_OK) {
-                if (st == PK_SRC_END)
-                    pk_refine_reset(r);
-                return st;
-            }
-        }
+    if (r->fast && r->e.sp.rem != 0u) {
         r->e.sp.rem--;
         span_emit1(r, out);
         return PK_OK;
     }
 #endif
-    int st = pull_one(r, out);
-    if (st == PK_END)
-        pk_refine_reset(r);
-    return st;
+    return pull_more(r, out);
 }
 
 int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,

@@ -110,10 +110,13 @@
                          ((PK_BUILD_ENDS & 0x04) != 0 && (PK_BUILD_DEGREES & 0x0C) != 0))
 /** Highest degree the span engine handles in this build. */
 #define PK_SPAN_DMAX ((PK_BUILD_DEGREES & 0x08) ? 3 : (PK_BUILD_DEGREES & 0x04) ? 2 : 1)
-/** Input points the span engine keeps: a clamped span's D + 1 plus the
- *  lookahead that tells it from the stroke's last spans (2D in all), or
- *  D + 2 for the plain rule (one span per push). */
-#define PK_SPAN_WIN (PK_SPAN_DMAX == 3 ? 6 : PK_SPAN_DMAX + 2)
+/** Input points the span engine keeps (a ring, so a power of two): a
+ *  clamped span's D + 1 plus the lookahead that tells it from the stroke's
+ *  last spans (2D in all), or D + 2 for the plain rule (one span per push). */
+#define PK_SPAN_WIN (PK_SPAN_DMAX == 3 ? 8 : 4)
+/** The span engine's degree when the build has only one (else 0). */
+#define PK_SPAN_ONE_D ((PK_BUILD_DEGREES & 0x0E) == 0x04 ? 2 : (PK_BUILD_DEGREES & 0x0E) == 0x08 ? 3 \
+                       : (PK_BUILD_DEGREES & 0x0E) == 0x02 ? 1 : 0)
 
 /* Largest number of fraction bits F a level-K value needs in this build
  * (pk_refine.c, "Ranges"); 32-bit working values when that is <= 10. */
@@ -208,13 +211,17 @@ struct pk_refine_out {
 struct pk_span {
     pk_umf_t s[PK_SPAN_DMAX + 1][PK_AXES]; /**< s[0] the next level-K point, s[d] its d-th
                                               forward difference (s[D] constant in a span) */
-    pk_um_t w[PK_SPAN_WIN][PK_AXES];       /**< the last input points taken, newest last */
-    uint32_t rem;    /**< outputs left in the current run */
-    uint32_t blk;    /**< span index of the current run (saturating) */
+    pk_um_t w[PK_SPAN_WIN][PK_AXES];       /**< the last input points taken: P(i) in w[i % PK_SPAN_WIN] */
+    uint16_t rem;    /**< outputs left in the current run (<= 2^depth + 3) */
+    uint16_t pad0_;
+    uint32_t blk;    /**< span index of the current run (modulo 2^32) */
     uint8_t ph;      /**< phase: which run comes next (pk_refine.c) */
     uint8_t D;       /**< degree */
     uint8_t K;       /**< depth in use for this stroke (a 3-point clamped cubic: one less) */
-    uint8_t g;       /**< fraction bits of the points in w (that stroke: 3) */
+    uint8_t g;       /**< fraction bits of the points in w (32-bit builds: up to 8 - F;
+                          a 3-point clamped cubic: 3 more) */
+    uint8_t lft;     /**< spans since the first, saturating at 3 (clamped left ends) */
+    uint8_t pad_[3];
 };
 #endif
 
@@ -261,8 +268,9 @@ struct pk_refine {
     uint8_t F;             /**< fraction bits of the level-K values */
     uint8_t G;             /**< cascade: most fraction bits a level keeps */
     uint8_t pad_[2];
+    pk_umf_t half;         /**< 2^(F-1): the output rounding's half unit (0 if F = 0) */
     uint32_t m;            /**< points pushed in this stroke (saturating) */
-    uint32_t taken;        /**< points the engine has taken from the input (saturating) */
+    uint32_t taken;        /**< points the engine has taken from the input (modulo 2^32) */
     uint32_t out_done;     /**< closed: outputs delivered or committed to a run */
     uint32_t out_left;     /**< closed: outputs still to give (2^depth * m), else UINT32_MAX */
     pk_um_t in[PK_AXES];   /**< the input slot */

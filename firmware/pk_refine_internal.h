@@ -13,6 +13,20 @@
 
 #include "pk_refine.h"
 
+/* A function the compiler must not inline (keeps a hot caller small). */
+#if defined(__GNUC__)
+#define PK_NOINLINE __attribute__((noinline))
+#else
+#define PK_NOINLINE
+#endif
+
+/* A function the compiler must inline (the hot path's helpers). */
+#if defined(__GNUC__)
+#define PK_INLINE inline __attribute__((always_inline))
+#else
+#define PK_INLINE inline
+#endif
+
 /* r->engine */
 #define PK_ENG_PASS 0u    /* depth 0: the input itself */
 #define PK_ENG_SPAN 1u    /* closed-form spans (pk_refine_span.c) */
@@ -75,7 +89,7 @@ void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t);
 /** Round an exact level-K value (r->F fraction bits) to whole µm. */
 static inline pk_um_t pk_out_round(const struct pk_refine *r, pk_umf_t v)
 {
-    return r->F ? pk_umf_round(v, r->F, (pk_umf_t)1 << (r->F - 1u)) : (pk_um_t)v;
+    return r->F ? pk_umf_round(v, r->F, r->half) : (pk_um_t)v;
 }
 
 #endif

@@ -34,7 +34,7 @@ struct xm_cfg {
 };
 
 /* One coordinate, one level: x[0..m) at scale 2^f -> y at scale 2^(f + 8). */
-static unsigned xm_level1(const struct xm_cfg *c, const xm_t *x, unsigned m, xm_t *y)
+static inline unsigned xm_level1(const struct xm_cfg *c, const xm_t *x, unsigned m, xm_t *y)
 {
     const xm_t U = (xm_t)1 << XM_FRAC; /* one, at the added scale */
     static xm_t s[2 * XM_MAX + 2];
@@ -136,7 +136,7 @@ static unsigned xm_level1(const struct xm_cfg *c, const xm_t *x, unsigned m, xm_
 }
 
 /* The whole refinement: in[m][dims] (µm) -> *out (numerators over 2^out->frac). */
-static void xm_refine(const struct xm_cfg *c, unsigned depth, const int32_t (*in)[3], unsigned m,
+static inline void xm_refine(const struct xm_cfg *c, unsigned depth, const int32_t (*in)[3], unsigned m,
                       unsigned dims, struct xm_poly out[3])
 {
     static struct xm_poly tmp[3];
@@ -156,7 +156,7 @@ static void xm_refine(const struct xm_cfg *c, unsigned depth, const int32_t (*in
 }
 
 /* round(v / 2^f), ties away from zero. */
-static int64_t xm_round(xm_t v, unsigned f)
+static inline int64_t xm_round(xm_t v, unsigned f)
 {
     if (f == 0u)
         return (int64_t)v;
@@ -165,7 +165,7 @@ static int64_t xm_round(xm_t v, unsigned f)
 }
 
 /* |out - v / 2^f| <= num / 2^den_log2, exactly. */
-static int xm_within(int64_t out, xm_t v, unsigned f, xm_t num, unsigned den_log2)
+static inline int xm_within(int64_t out, xm_t v, unsigned f, xm_t num, unsigned den_log2)
 {
     xm_t d = (xm_t)out * ((xm_t)1 << f) - v; /* error * 2^f */
     if (d < 0)
