@@ -87,6 +87,11 @@ static inline pk_um_t pk_umf_round(pk_umf_t x, unsigned f, pk_umf_t half)
 /** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
 uint32_t pk_isqrt64(uint64_t x);
 
+/** Unit vector (Q1.30) along d (dims <= 3 components); all zero if d is
+ *  zero. Good to ~1e-9 rad; integer operations only and no division (a
+ *  restoring division in 32 bits), so no library divide on small targets. */
+void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t);
+
 /** Round x / d to nearest, ties away from zero. d > 0, |x| < 2^62. */
 static inline int64_t pk_div_round64(int64_t x, int64_t d)
 {

@@ -83,6 +83,8 @@
 
 #include <stddef.h>
 
+#if !PK_CHAIKIN_ONLY /* else pk_refine_chaikin.c is the kernel */
+
 _Static_assert((-3 >> 1) == -2, "the kernel needs arithmetic right shifts of negative values");
 
 /* ---- configuration -------------------------------------------------------- */
@@ -476,3 +478,5 @@ uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)
     uint32_t burst = (cfg->limit || cfg->tangents) ? (uint32_t)PK_LWIN : 0u;
     return ((cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d) + burst;
 }
+
+#endif /* !PK_CHAIKIN_ONLY */

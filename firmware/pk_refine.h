@@ -101,13 +101,17 @@
 #define PK_BUILD_LIMIT 1
 #endif
 
+/** Chaikin with clamped ends only: the kernel is pk_refine_chaikin.c alone
+ *  (written out for the smallest chips), the general one is not compiled. */
+#define PK_CHAIKIN_ONLY (PK_BUILD_DEGREES == 0x04 && !PK_BUILD_DLG && PK_BUILD_ENDS == 0x02 && !PK_BUILD_CLOSED)
+
 /* Which engines that selection needs (see pk_refine.c). The closed-form span
  * engine serves B-spline degrees 1..3 with clamped or no end rule and closed
  * curves (and degree 1 with any rule); the level cascade serves DLG, the
  * replace rule of degrees 2..3 and every degree >= 4. */
-#define PK_HAVE_SPAN ((PK_BUILD_DEGREES & 0x0E) != 0)
-#define PK_HAVE_CASCADE (PK_BUILD_DLG || (PK_BUILD_DEGREES & 0xF0) != 0 || \
-                         ((PK_BUILD_ENDS & 0x04) != 0 && (PK_BUILD_DEGREES & 0x0C) != 0))
+#define PK_HAVE_SPAN ((PK_BUILD_DEGREES & 0x0E) != 0 && !PK_CHAIKIN_ONLY)
+#define PK_HAVE_CASCADE ((PK_BUILD_DLG || (PK_BUILD_DEGREES & 0xF0) != 0 || \
+                          ((PK_BUILD_ENDS & 0x04) != 0 && (PK_BUILD_DEGREES & 0x0C) != 0)) && !PK_CHAIKIN_ONLY)
 /** Highest degree the span engine handles in this build. */
 #define PK_SPAN_DMAX ((PK_BUILD_DEGREES & 0x08) ? 3 : (PK_BUILD_DEGREES & 0x04) ? 2 : 1)
 /** Input points the span engine keeps (a ring, so a power of two): a
@@ -206,7 +210,7 @@ struct pk_refine_out {
 
 /* ---- private state (exposed only so that callers can own the storage) ---- */
 
-#if PK_HAVE_SPAN
+#if PK_HAVE_SPAN || PK_CHAIKIN_ONLY
 /** The closed-form span engine: one polynomial run at a time. */
 struct pk_span {
     pk_umf_t s[PK_SPAN_DMAX + 1][PK_AXES]; /**< s[0] the next level-K point, s[d] its d-th
@@ -236,7 +240,7 @@ struct pk_level {
 };
 #endif
 
-#if PK_BUILD_LIMIT
+#if PK_BUILD_LIMIT && !PK_CHAIKIN_ONLY
 /** The limit/tangent stage (one per stream). */
 struct pk_limit_stage {
     pk_umf_t w[PK_LWIN][PK_AXES]; /**< the last level-K points, w[PK_LWIN-1] newest */
@@ -278,7 +282,7 @@ struct pk_refine {
     pk_um_t first[PK_CLOSE_MAX][PK_AXES]; /**< closed: the stroke's first points */
 #endif
     union {
-#if PK_HAVE_SPAN
+#if PK_HAVE_SPAN || PK_CHAIKIN_ONLY
         struct pk_span sp;
 #endif
 #if PK_HAVE_CASCADE
@@ -286,7 +290,7 @@ struct pk_refine {
 #endif
         uint8_t none_;
     } e;
-#if PK_BUILD_LIMIT
+#if PK_BUILD_LIMIT && !PK_CHAIKIN_ONLY
     struct pk_limit_stage lim;
 #endif
 };

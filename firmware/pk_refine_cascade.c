@@ -36,6 +36,7 @@
 
 #include "pk_rom.h"
 
+
 /* What each level does (chosen at setup from scheme, degree, closed, ends). */
 enum lv_kind {
     K_LR_INTERIOR, /* B-spline, no end rule, no deferral (closed curves) */

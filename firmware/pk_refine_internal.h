@@ -83,8 +83,6 @@ void pk_limit_finish(struct pk_refine *r);
 void pk_limit_emit(struct pk_refine *r, struct pk_refine_out *out);
 #endif
 
-/** Unit vector (Q1.30) along d; all zero if d is zero. No division. */
-void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t);
 
 /** Round an exact level-K value (r->F fraction bits) to whole µm. */
 static inline pk_um_t pk_out_round(const struct pk_refine *r, pk_umf_t v)

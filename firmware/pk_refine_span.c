@@ -606,6 +606,7 @@ static uint32_t emit_scalar(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
     PK_SPAN_DMAX >= 2
 #include <string.h>
 
+
 typedef uint32_t pk_v4u __attribute__((vector_size(16)));
 typedef int32_t pk_v4s __attribute__((vector_size(16)));
 

@@ -16,7 +16,7 @@ pass=0; fail=0
 ok()  { pass=$((pass+1)); echo "ok $*"; }
 bad() { fail=$((fail+1)); echo "not ok $*"; }
 
-KSRC="firmware/pk_refine.c firmware/pk_refine_span.c firmware/pk_refine_cascade.c firmware/pk_limit.c
+KSRC="firmware/pk_refine.c firmware/pk_refine_span.c firmware/pk_refine_cascade.c firmware/pk_limit.c firmware/pk_refine_chaikin.c
       firmware/pk_masks.c firmware/pk_fixed.c"
 CFLAGS="-std=c11 -O2 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wundef
         -Ifirmware -Itests"

@@ -27,14 +27,18 @@
 #define MAXIN 24
 #define MAXOUT 8192
 
-static uint64_t rng = 0x9E3779B97F4A7C15u;
-static uint32_t rnd(void)
+static uint64_t rng = 0x9E3779B97F4A7C15u, rng_blocks = 1;
+static uint32_t xorshift(uint64_t *st)
 {
-    rng ^= rng >> 12;
-    rng ^= rng << 25;
-    rng ^= rng >> 27;
-    return (uint32_t)((rng * 0x2545F4914F6CDD1Du) >> 32);
+    *st ^= *st >> 12;
+    *st ^= *st << 25;
+    *st ^= *st >> 27;
+    return (uint32_t)((*st * 0x2545F4914F6CDD1Du) >> 32);
 }
+/* inputs (the same in every build) and block sizes (whose number of draws
+ * depends on how the build releases points) from separate generators */
+static uint32_t rnd(void) { return xorshift(&rng); }
+static uint32_t rnd_block(void) { return xorshift(&rng_blocks); }
 
 static int32_t IN[MAXIN][3];
 static struct pk_refine_out OUT[MAXOUT];
@@ -91,7 +95,7 @@ static int run(const struct pk_refine_cfg *c, unsigned m, unsigned *n, int block
         }
         for (;;) {
             if (block) {
-                uint32_t got = 0, want = 1u + rnd() % 40u;
+                uint32_t got = 0, want = 1u + rnd_block() % 40u;
                 if (*n + want > MAXOUT)
                     return -101;
                 st = pk_refine_pull_block(&r, BP + (size_t)*n * c->dims, NULL, want, &got);
