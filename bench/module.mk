@@ -4,20 +4,24 @@
 #   make bench         host benchmarks against the peers, AVR cycle counts, motion time
 #   make bench-host    kernel vs double baseline vs npm peers (bench/run_bench.py)
 #   make bench-avr     exact ATmega328P cycles under simavr (bench/avr_cycles.c)
+#   make bench-sizes   flash and state of every kernel build (bench/kernel_sizes.py)
 include tests/targets/module.mk
 
 BENCH_DIR := $(BUILD)/bench
 
 # ---- AVR cycle counts (simavr) ----------------------------------------------
 # The kernel for the ATmega328P twice (PK_AXES=2 for XY plotters, 3), then one
-# ELF per build, run by the libsimavr harness bench/avr_cycles.
-$(eval $(call tgt_fw_rule,avr-ax2,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=2))
-$(eval $(call tgt_fw_rule,avr-ax3,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=3))
+# ELF per build, run by the libsimavr harness bench/avr_cycles. What these
+# programs measure (Chaikin and the cubic, open and closed, with limit): the
+# whole kernel does not fit the 328P's 32 KB beside them.
+AVR_SPLINE_DEFS := -DPK_BUILD_DEGREES=0x0C -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x0A
+$(eval $(call tgt_fw_rule,avr-ax2,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=2 $(AVR_SPLINE_DEFS)))
+$(eval $(call tgt_fw_rule,avr-ax3,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=3 $(AVR_SPLINE_DEFS)))
 AVR_BENCH_FLAGS := $(TGT_FLAGS_avr) -Os -g -std=c11 -ffunction-sections -fdata-sections \
                    -Ifirmware -Ihal -Ibench/avr -I/usr/include/simavr/avr
 $(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-ax%/libplotkin_fw.a
 	@mkdir -p $(@D)
-	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -Wl,--gc-sections \
+	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* $(AVR_SPLINE_DEFS) -Wl,--gc-sections \
 	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
 $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)
@@ -34,8 +38,18 @@ $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf: bench/avr/avr_step_cycles.c bench
 	$(AVR_CC) $(subst $(TGT_FLAGS_avr),,$(AVR_BENCH_FLAGS)) $(AVR_STEP_FLAGS) -Wl,--gc-sections \
 	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr1284-step/libplotkin_fw.a
 
+# The kernel as the motion core on a 328P carries it: Chaikin with clamped
+# ends only (pk_refine_chaikin.c), 2 axes, to depth 5 (32-bit values).
+AVR_CHAIKIN_DEFS := -DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 \
+                    -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0
+$(eval $(call tgt_fw_rule,avr-chaikin,$(AVR_CC),$(TGT_FLAGS_avr) $(AVR_CHAIKIN_DEFS)))
+$(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(AVR_CC) $(AVR_BENCH_FLAGS) $(AVR_CHAIKIN_DEFS) -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
+
 AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf \
-                  $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf
+                  $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf
 
 # The measurement whose cycles are broken down by function (3-axis build).
 AVR_PROFILE ?= chaikin d4
@@ -46,6 +60,9 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS)
 	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes" "$(AVR_PROFILE)"
+	@echo "the Chaikin-only kernel (pk_refine_chaikin.c: clamped ends, 2 axes, depth <= 5; the motion core's 328P build);"
+	@echo "goal for chaikin d4: <= 300 cycles per output point"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf "chaikin" | grep -v 'init failed' | grep .
 	@echo "Step timer callback (pk_machine_timer_cb) per motor step, smoothing off, 2 axes, 80 steps/mm,"
 	@echo "3 feed moves at 3000 mm/min; ATmega1284P build (same core timings as the 328P)"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr1284-step/avr_step_cycles.elf "1284P"
@@ -67,6 +84,11 @@ bench/node_modules/.plotkin-stamp: bench/package.json
 	@touch $@
 
 BENCH_ARGS ?=
+# Flash and state of every kernel build, Cortex-M0+ and AVR (bench/kernel_sizes.py)
+.PHONY: bench-sizes
+bench-sizes:
+	@$(PYTHON3) bench/kernel_sizes.py --build $(BUILD)/kernel-sizes
+
 .PHONY: bench-host
 bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_modules/.plotkin-stamp
 	@$(PYTHON3) bench/run_bench.py --build $(BENCH_DIR) $(BENCH_ARGS)
@@ -77,7 +99,7 @@ bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_mo
 bench:
 	@bash .ci/deps.sh base targets
 	@for t in valgrind node npm; do command -v $$t >/dev/null || { bash .ci/deps.sh bench; break; }; done
-	@$(MAKE) --no-print-directory bench-host bench-avr
+	@$(MAKE) --no-print-directory bench-host bench-avr bench-sizes
 
 # bench/module.mk — benchmark programs (print tables; never pass/fail).
 #   make bench-motion   total motion time: smoothing off vs tolerance vs an ideal trapezoid

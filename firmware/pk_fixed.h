@@ -73,15 +73,19 @@ static inline int64_t pk_rshift_round64(int64_t x, unsigned s)
  *  half = 2^(f-1); the result fits pk_um_t when |x| < 2^(f+31)). Branch-free:
  *  adding -1 for negative x turns floor((x + half) / 2^f) into its mirror
  *  image (arithmetic shifts of negative values: pk_refine.c checks that the
- *  compiler does them). A shift by 8 first: on 8-bit targets that is a byte
- *  move, where a variable shift is a loop (32-bit kernel builds carry F = 8
- *  wherever they can, pk_refine_span.c). */
+ *  compiler does them). On AVR a shift by 8 first: that is a byte move, where
+ *  a variable shift is a loop (32-bit kernel builds carry F = 8 wherever they
+ *  can, pk_refine_span.c). */
 static inline pk_um_t pk_umf_round(pk_umf_t x, unsigned f, pk_umf_t half)
 {
     x = x + half + (x >> (PK_UMF_BITS - 1));
+#if defined(__AVR__)
     if (f == 8u)
         return (pk_um_t)(x >> 8);
     return (pk_um_t)(f > 8u ? (x >> 8) >> (f - 8u) : x >> f);
+#else
+    return (pk_um_t)(x >> f);
+#endif
 }
 
 /** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */

@@ -372,6 +372,17 @@ static PK_INLINE void span_emit1(struct pk_refine *r, struct pk_refine_out *out)
         return;
     }
 #endif
+#if PK_SPAN_DMAX >= 3
+    if (D == 3u && dims == 2u) {
+        s[0][0] += s[1][0];
+        s[1][0] += s[2][0];
+        s[2][0] += s[3][0];
+        s[0][1] += s[1][1];
+        s[1][1] += s[2][1];
+        s[2][1] += s[3][1];
+        return;
+    }
+#endif
     for (unsigned a = 2; a < dims; a++)
         out->p[a] = pk_umf_round(s[0][a], f, half);
     for (unsigned a = 0; a < dims; a++)

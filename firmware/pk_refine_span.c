@@ -575,6 +575,7 @@ static uint32_t emit_scalar(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
 {
     const pk_umf_t half = (pk_umf_t)1 << (f - 1u);
     pk_umf_t(*s)[PK_AXES] = sp->s;
+    /* the common cases with the state in registers */
 #if PK_SPAN_DMAX >= 2
     if (sp->D == 2u && dims == 2u) {
         pk_umf_t x0 = s[0][0], x1 = s[1][0], x2 = s[2][0];
@@ -591,6 +592,29 @@ static uint32_t emit_scalar(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
         s[1][0] = x1;
         s[0][1] = y0;
         s[1][1] = y1;
+        return c;
+    }
+#endif
+#if PK_SPAN_DMAX >= 3
+    if (sp->D == 3u && dims == 2u) {
+        pk_umf_t x0 = s[0][0], x1 = s[1][0], x2 = s[2][0], x3 = s[3][0];
+        pk_umf_t y0 = s[0][1], y1 = s[1][1], y2 = s[2][1], y3 = s[3][1];
+        for (uint32_t i = 0; i < c; i++) {
+            p[2 * i] = pk_umf_round(x0, f, half);
+            p[2 * i + 1] = pk_umf_round(y0, f, half);
+            x0 += x1;
+            x1 += x2;
+            x2 += x3;
+            y0 += y1;
+            y1 += y2;
+            y2 += y3;
+        }
+        s[0][0] = x0;
+        s[1][0] = x1;
+        s[2][0] = x2;
+        s[0][1] = y0;
+        s[1][1] = y1;
+        s[2][1] = y2;
         return c;
     }
 #endif
