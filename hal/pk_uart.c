@@ -54,6 +54,24 @@ static void drop_count(struct pk_uart *u)
     atomic_store_explicit(&u->rx_drop_seq, (uint8_t)(seq + 2u), memory_order_release);
 }
 
+/* Receive side only: one byte lost at RX index h. One event per run of lost
+ * bytes: a new event only once the main loop has seen the previous one (so
+ * ev - seen is 0 or 1 and an 8-bit counter is exact). */
+static void rx_loss(struct pk_uart *u, uint8_t h)
+{
+    drop_count(u);
+    uint8_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
+    if (ev == atomic_load_explicit(&u->rx_overflows_seen, memory_order_acquire)) {
+        atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
+        atomic_store_explicit(&u->rx_overflows, (uint8_t)(ev + 1u), memory_order_release);
+    }
+}
+
+void pk_uart_rx_lost(struct pk_uart *u)
+{
+    rx_loss(u, atomic_load_explicit(&u->rx_head, memory_order_relaxed));
+}
+
 int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
 {
     if (u->filter != NULL && u->filter(u->filter_ctx, byte))
@@ -61,15 +79,7 @@ int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
     uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_relaxed);
     uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_acquire);
     if ((uint8_t)(h - t) >= PK_UART_RX_SIZE) {
-        drop_count(u);
-        /* One event per run of lost bytes: a new event only once the main
-         * loop has seen the previous one (so ev - seen is 0 or 1 and an
-         * 8-bit counter is exact). */
-        uint8_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
-        if (ev == atomic_load_explicit(&u->rx_overflows_seen, memory_order_acquire)) {
-            atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
-            atomic_store_explicit(&u->rx_overflows, (uint8_t)(ev + 1u), memory_order_release);
-        }
+        rx_loss(u, h);
         return PK_UART_RX_DROPPED;
     }
     u->rx[h & RX_MASK] = byte;

@@ -107,6 +107,13 @@ void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx);
 /** [ISR / receive side] Offer one received byte. See enum pk_uart_rx_result. */
 int pk_uart_rx_push(struct pk_uart *u, uint8_t byte);
 
+/**
+ * [ISR / receive side] Report one byte lost before it reached the ring (a
+ * UART data overrun or framing error): counted and flagged exactly like a
+ * byte that found the ring full, at the current position of the stream.
+ */
+void pk_uart_rx_lost(struct pk_uart *u);
+
 /** [receive side] Free RX slots right now (a pump reads at most this many). */
 size_t pk_uart_rx_space(const struct pk_uart *u);
 

@@ -1,0 +1,18 @@
+# hal/avr/uno-cnc-shield/board.mk — the image for an Arduino Uno + CNC shield V3
+# (board.h has the pin map). Read by hal/firmware.mk: one source list per
+# board, the compile-time size knobs of this build, and its budget.
+BOARD_ARCH  := avr
+BOARD_MCU   := atmega328p
+BOARD_F_CPU := 16000000UL
+BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
+               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/pk_app.c hal/pk_uart.c
+# Two axes + pen, Chaikin/B-spline smoothing only (2 points of history per
+# level), short queues: see the size table of `make firmware`.
+BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+               -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
+               -DPK_UART_TX_SIZE=64
+# ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
+BOARD_FLASH_MAX := 32256
+BOARD_RAM_MAX   := 2048
+# The motion core never uses the kernel's limit stage: link without it.
+BOARD_KERNEL_LIMIT := 0

@@ -1,0 +1,92 @@
+# hal/firmware.mk — `make firmware`: flashable images of every board, ELF and
+# Intel HEX, with their size table. (Included from hal/module.mk.)
+#
+#   make firmware          install the cross toolchains if missing, build every
+#                          board's image, print flash / RAM / fits per board
+#   make firmware-build    the same without the install step
+#
+# A board is a folder hal/<arch>/<board>/ with board.h (the only file naming
+# its pins, timers and vectors) and board.mk, which sets
+#   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
+#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
+# BOARD_KERNEL_LIMIT = 0 links the image without the kernel's limit stage
+# (hal/pk_kernel_nolimit.c says why and how); default 1.
+# BOARD_SRC is the board's one source list (backend files + hal/pk_app.c +
+# hal/pk_uart.c); every firmware/*.c is compiled with the board's knobs and
+# linked with --gc-sections, so only what the image uses stays in it.
+# Images: $(FW_DIR)/<board>/<board>.{elf,hex,map}.
+
+FW_DIR     := $(BUILD)/firmware
+FW_BOARDMK := $(sort $(wildcard hal/*/*/board.mk))
+FW_BOARDS  := $(foreach f,$(FW_BOARDMK),$(notdir $(patsubst %/,%,$(dir $(f)))))
+FW_OPT     := -Os -g -ffunction-sections -fdata-sections -fno-common -ffreestanding
+FW_CC_avr   := $(AVR_PREFIX)gcc
+FW_CC_arm   := $(ARM_PREFIX)gcc
+FW_BIN_avr  := $(AVR_PREFIX)
+FW_BIN_arm  := $(ARM_PREFIX)
+FW_NOLIMIT_LDFLAGS := $(foreach f,setup ready exhausted feed finish emit,-Wl,--wrap=pk_limit_$(f))
+
+# $(call fw_board,DIR,NAME): read DIR/board.mk into FWB_NAME_* and make rules
+define fw_board
+BOARD_ARCH :=
+BOARD_MCU :=
+BOARD_CPU :=
+BOARD_F_CPU :=
+BOARD_SRC :=
+BOARD_DEFS :=
+BOARD_LDSCRIPT :=
+BOARD_LDFLAGS :=
+BOARD_KERNEL_LIMIT := 1
+include $(1)/board.mk
+ifeq ($$(BOARD_KERNEL_LIMIT),0)
+BOARD_SRC += hal/pk_kernel_nolimit.c
+BOARD_LDFLAGS += $(FW_NOLIMIT_LDFLAGS)
+endif
+FWB_$(2)_ARCH := $$(BOARD_ARCH)
+FWB_$(2)_MCU := $$(BOARD_MCU)
+FWB_$(2)_CC := $$(FW_CC_$$(BOARD_ARCH))
+FWB_$(2)_BIN := $$(FW_BIN_$$(BOARD_ARCH))
+FWB_$(2)_MFLAGS := $$(if $$(BOARD_MCU),-mmcu=$$(BOARD_MCU)) $$(BOARD_CPU) -DF_CPU=$$(BOARD_F_CPU)
+FWB_$(2)_CPPFLAGS := -Ifirmware -Ihal -Ihal/$$(BOARD_ARCH) -I$(1) $$(BOARD_DEFS)
+FWB_$(2)_SRC := $$(BOARD_SRC)
+FWB_$(2)_FLASH_MAX := $$(BOARD_FLASH_MAX)
+FWB_$(2)_RAM_MAX := $$(BOARD_RAM_MAX)
+FWB_$(2)_LDSCRIPT := $$(BOARD_LDSCRIPT)
+FWB_$(2)_LDFLAGS := $$(BOARD_LDFLAGS)
+FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(TGT_FW_SRC) $$(BOARD_SRC))
+
+$(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c
+	@mkdir -p $$(@D)
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
+$(FW_DIR)/$(2)/obj/hal/%.o: hal/%.c
+	@mkdir -p $$(@D)
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
+$(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -Wl,-Map=$$(@:.elf=.map) \
+	  $$(if $$(FWB_$(2)_LDSCRIPT),-T $$(FWB_$(2)_LDSCRIPT)) $$(FWB_$(2)_LDFLAGS) -o $$@ $$(FWB_$(2)_OBJ) -lgcc
+$(FW_DIR)/$(2)/$(2).hex: $(FW_DIR)/$(2)/$(2).elf
+	$$(FWB_$(2)_BIN)objcopy -O ihex -R .eeprom -R .fuse -R .lock -R .signature $$< $$@
+endef
+$(foreach f,$(FW_BOARDMK),$(eval $(call fw_board,$(patsubst %/,%,$(dir $(f))),$(notdir $(patsubst %/,%,$(dir $(f)))))))
+
+FW_IMAGES := $(foreach b,$(FW_BOARDS),$(FW_DIR)/$(b)/$(b).hex)
+
+.PHONY: firmware firmware-build
+firmware:
+	@bash .ci/deps.sh targets
+	@$(MAKE) --no-print-directory firmware-build
+
+firmware-build: $(FW_IMAGES)
+	@$(PYTHON3) tests/targets/fwsize.py \
+	  $(foreach b,$(FW_BOARDS),--board $(b):$(FWB_$(b)_ARCH):$(FWB_$(b)_BIN):$(FWB_$(b)_FLASH_MAX):$(FWB_$(b)_RAM_MAX):$(FW_DIR)/$(b)/$(b).elf)
+
+# ---- the simavr whole-chip harness (host-sim/avr_chip.c, `plotkin avrsim`) ----
+# Compiled with libsimavr where pkg-config finds it; elsewhere the subcommand
+# says how to get it.
+HAVE_SIMAVR := $(shell pkg-config --exists simavr 2>/dev/null && test -f /usr/include/libelf.h -o -f /usr/include/libelf/libelf.h && echo yes)
+ifeq ($(HAVE_SIMAVR),yes)
+SIMAVR_CFLAGS := -DPK_HAVE_SIMAVR $(patsubst -I%,-isystem %,$(shell pkg-config --cflags simavr))
+SIMAVR_LIBS   := $(shell pkg-config --libs simavr) -lelf
+$(BUILD)/obj/host-sim/avr_chip.o $(SAN)/obj/host-sim/avr_chip.o: EXTRA_CFLAGS += $(SIMAVR_CFLAGS)
+$(BUILD)/plotkin $(SAN)/plotkin: HOST_LIBS += $(SIMAVR_LIBS)
+endif
