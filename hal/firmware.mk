@@ -2,19 +2,25 @@
 # Intel HEX, with their size table. (Included from hal/module.mk.)
 #
 #   make firmware          install the cross toolchains if missing, build every
-#                          board's image, print flash / RAM / fits per board
+#                          board's image, measure its stack on the emulated chip,
+#                          print flash / RAM / fits per board and per module;
+#                          fails if an image does not fit its part
 #   make firmware-build    the same without the install step
+#   make firmware-images   only the images (ELF always, HEX of those that fit)
 #
 # A board is a folder hal/<arch>/<board>/ with board.h (the only file naming
 # its pins, timers and vectors) and board.mk, which sets
 #   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
-#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
+#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_CFLAGS] [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
 # BOARD_KERNEL_LIMIT = 0 links the image without the kernel's limit stage
 # (hal/pk_kernel_nolimit.c says why and how); default 1.
 # BOARD_SRC is the board's one source list (backend files + hal/pk_app.c +
 # hal/pk_uart.c); every firmware/*.c is compiled with the board's knobs and
 # linked with --gc-sections, so only what the image uses stays in it.
-# Images: $(FW_DIR)/<board>/<board>.{elf,hex,map}.
+# Images: $(FW_DIR)/<board>/<board>.{elf,hex,map}. The ELF is linked with
+# the part's memory regions relaxed, so that an image too big for its part is
+# still measured; tests/targets/fwsize.py checks it against the board's
+# budget and writes the HEX only for an image that fits.
 
 FW_DIR     := $(BUILD)/firmware
 FW_BOARDMK := $(sort $(wildcard hal/*/*/board.mk))
@@ -24,6 +30,9 @@ FW_CC_avr   := $(AVR_PREFIX)gcc
 FW_CC_arm   := $(ARM_PREFIX)gcc
 FW_BIN_avr  := $(AVR_PREFIX)
 FW_BIN_arm  := $(ARM_PREFIX)
+# -mrelax: calls and jumps within reach become rcall/rjmp (smaller, a cycle faster)
+FW_ARCH_CFLAGS_avr := -mrelax
+FW_RELAX_avr := -Wl,--defsym=__TEXT_REGION_LENGTH__=0x40000 -Wl,--defsym=__DATA_REGION_LENGTH__=0xffa0
 FW_NOLIMIT_LDFLAGS := $(foreach f,setup ready exhausted feed finish emit,-Wl,--wrap=pk_limit_$(f))
 
 # $(call fw_board,DIR,NAME): read DIR/board.mk into FWB_NAME_* and make rules
@@ -34,6 +43,7 @@ BOARD_CPU :=
 BOARD_F_CPU :=
 BOARD_SRC :=
 BOARD_DEFS :=
+BOARD_CFLAGS :=
 BOARD_LDSCRIPT :=
 BOARD_LDFLAGS :=
 BOARD_KERNEL_LIMIT := 1
@@ -46,39 +56,45 @@ FWB_$(2)_ARCH := $$(BOARD_ARCH)
 FWB_$(2)_MCU := $$(BOARD_MCU)
 FWB_$(2)_CC := $$(FW_CC_$$(BOARD_ARCH))
 FWB_$(2)_BIN := $$(FW_BIN_$$(BOARD_ARCH))
-FWB_$(2)_MFLAGS := $$(if $$(BOARD_MCU),-mmcu=$$(BOARD_MCU)) $$(BOARD_CPU) -DF_CPU=$$(BOARD_F_CPU)
+FWB_$(2)_MFLAGS := $$(if $$(BOARD_MCU),-mmcu=$$(BOARD_MCU)) $$(BOARD_CPU) -DF_CPU=$$(BOARD_F_CPU) \
+                   $$(FW_ARCH_CFLAGS_$$(BOARD_ARCH)) $$(BOARD_CFLAGS)
 FWB_$(2)_CPPFLAGS := -Ifirmware -Ihal -Ihal/$$(BOARD_ARCH) -I$(1) $$(BOARD_DEFS)
 FWB_$(2)_SRC := $$(BOARD_SRC)
 FWB_$(2)_FLASH_MAX := $$(BOARD_FLASH_MAX)
 FWB_$(2)_RAM_MAX := $$(BOARD_RAM_MAX)
 FWB_$(2)_LDSCRIPT := $$(BOARD_LDSCRIPT)
-FWB_$(2)_LDFLAGS := $$(BOARD_LDFLAGS)
+FWB_$(2)_LDFLAGS := $$(BOARD_LDFLAGS) $$(FW_RELAX_$$(BOARD_ARCH))
 FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(TGT_FW_SRC) $$(BOARD_SRC))
 
-$(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c
+$(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
-$(FW_DIR)/$(2)/obj/hal/%.o: hal/%.c
+$(FW_DIR)/$(2)/obj/hal/%.o: hal/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -Wl,-Map=$$(@:.elf=.map) \
 	  $$(if $$(FWB_$(2)_LDSCRIPT),-T $$(FWB_$(2)_LDSCRIPT)) $$(FWB_$(2)_LDFLAGS) -o $$@ $$(FWB_$(2)_OBJ) -lgcc
-$(FW_DIR)/$(2)/$(2).hex: $(FW_DIR)/$(2)/$(2).elf
-	$$(FWB_$(2)_BIN)objcopy -O ihex -R .eeprom -R .fuse -R .lock -R .signature $$< $$@
+$(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk
+	@mkdir -p $$(@D)
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) -std=c11 $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
 endef
 $(foreach f,$(FW_BOARDMK),$(eval $(call fw_board,$(patsubst %/,%,$(dir $(f))),$(notdir $(patsubst %/,%,$(dir $(f)))))))
 
-FW_IMAGES := $(foreach b,$(FW_BOARDS),$(FW_DIR)/$(b)/$(b).hex)
+FW_ELFS := $(foreach b,$(FW_BOARDS),$(FW_DIR)/$(b)/$(b).elf $(FW_DIR)/$(b)/obj/fw_structs.o)
+FW_SIZE_ARGS = $(foreach b,$(FW_BOARDS),--board $(b):$(FWB_$(b)_ARCH):$(FWB_$(b)_BIN):$(FWB_$(b)_FLASH_MAX):$(FWB_$(b)_RAM_MAX):$(FW_DIR)/$(b)/$(b).elf:$(FW_DIR)/$(b)/obj/fw_structs.o)
 
-.PHONY: firmware firmware-build
+.PHONY: firmware firmware-build firmware-images
 firmware:
-	@bash .ci/deps.sh targets
+	@bash .ci/deps.sh base targets
 	@$(MAKE) --no-print-directory firmware-build
 
-firmware-build: $(FW_IMAGES)
-	@$(PYTHON3) tests/targets/fwsize.py \
-	  $(foreach b,$(FW_BOARDS),--board $(b):$(FWB_$(b)_ARCH):$(FWB_$(b)_BIN):$(FWB_$(b)_FLASH_MAX):$(FWB_$(b)_RAM_MAX):$(FW_DIR)/$(b)/$(b).elf)
+firmware-build: $(FW_ELFS) $(BUILD)/plotkin
+	@$(PYTHON3) tests/targets/fwsize.py --plotkin $(BUILD)/plotkin --workload tests/avr/workload.gcode \
+	  --detail $(FW_SIZE_ARGS)
+
+firmware-images: $(FW_ELFS)
+	@$(PYTHON3) tests/targets/fwsize.py --hex-only $(FW_SIZE_ARGS)
 
 # ---- the simavr whole-chip harness (host-sim/avr_chip.c, `plotkin avrsim`) ----
 # Compiled with libsimavr where pkg-config finds it; elsewhere the subcommand

@@ -11,6 +11,9 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64
+# Shared register save/restore sequences: about 5 % less flash, a few cycles
+# more per call of a function that saves many registers.
+BOARD_CFLAGS := -mcall-prologues
 # ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
 BOARD_FLASH_MAX := 32256
 BOARD_RAM_MAX   := 2048
