@@ -75,6 +75,15 @@ $(FW_DIR)/$(2)/obj/hal/%.o: hal/%.c $(1)/board.mk hal/firmware.mk
 $(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -Wl,-Map=$$(@:.elf=.map) \
 	  $$(if $$(FWB_$(2)_LDSCRIPT),-T $$(FWB_$(2)_LDSCRIPT)) $$(FWB_$(2)_LDFLAGS) -o $$@ $$(FWB_$(2)_OBJ) -lgcc
+# The host tool built with the board's size knobs: `plotkin sim` for the same
+# firmware configuration as the image, to compare the two run for run.
+# (-Wno-array-bounds: with PK_AXES=2, gcc flags the third-axis branches that
+# only run when the kernel was set up with 3 dimensions, e.g. in cmd_refine.c.)
+$(FW_DIR)/$(2)/host/obj/%.o: %.c $(1)/board.mk hal/firmware.mk
+	@mkdir -p $$(@D)
+	$$(CC) $$(CPPFLAGS_COMMON) $$(WARN) -Wno-array-bounds $$(OPT) $$(BOARD_DEFS) -MMD -MP -c $$< -o $$@
+$(FW_DIR)/$(2)/host/plotkin: $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC) host-sim/main.c)
+	$$(CC) $$(OPT) -o $$@ $$^ $$(HOST_LIBS)
 $(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) -std=c11 $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@

@@ -293,7 +293,6 @@ int pk_avrchip_open(struct pk_avrchip *c, const struct pk_avrchip_board *b, cons
         return -1;
     }
     c->sp_min = 0xFFFFu;
-    c->isr_vec = 0xFFu;
     c->state = cpu_Running;
     return 0;
 }
@@ -332,26 +331,36 @@ static void step(struct pk_avrchip *c)
     if (sp < c->sp_min)
         c->sp_min = sp;
     uint8_t depth = avr->interrupts.running_ptr;
-    if (depth0 > 0 && c->hist != NULL && c->isr_vec == c->b->step_vector && pc0 / 2u < c->hist_words)
+    uint8_t cur = c->n_frames ? c->frames[c->n_frames - 1].vec : 0xFFu;
+    if (depth0 > 0 && c->hist != NULL && cur == c->b->step_vector && pc0 / 2u < c->hist_words)
         c->hist[pc0 / 2u] += avr->cycle - cyc0;
-    if (depth > depth0) {
+    if (depth > depth0 && c->n_frames < sizeof c->frames / sizeof c->frames[0]) {
         /* entered: the vector's first instruction runs next */
-        c->isr_vec = (uint8_t)avr->interrupts.running[depth - 1]->vector;
-        c->isr_t0 = avr->cycle;
-    } else if (depth < depth0 && depth == 0) {
-        uint64_t d = avr->cycle - c->isr_t0 + pk_avrchip_isr_response(c);
-        if (c->isr_vec < PK_AVRCHIP_VECTORS) {
-            struct pk_avrchip_isr *s = &c->isr[c->isr_vec];
-            s->calls++;
-            s->cycles += d;
-            if (d > s->max)
-                s->max = d;
+        c->frames[c->n_frames++] = (struct pk_avrchip_frame){
+            (uint8_t)avr->interrupts.running[depth - 1]->vector, avr->cycle, 0 };
+    } else if (depth < depth0 && c->n_frames > 0) {
+        struct pk_avrchip_frame f = c->frames[--c->n_frames];
+        uint64_t incl = avr->cycle - f.t0 + pk_avrchip_isr_response(c);
+        uint64_t excl = incl - f.nested;
+        if (f.vec < PK_AVRCHIP_VECTORS) {
+            struct pk_avrchip_isr *st = &c->isr[f.vec];
+            st->calls++;
+            st->cycles += excl;
+            if (excl > st->max)
+                st->max = excl;
+            if (incl > st->max_incl)
+                st->max_incl = incl;
         }
-        c->isr_cycles_total += d;
-        c->isr_vec = 0xFFu;
+        if (c->n_frames > 0)
+            c->frames[c->n_frames - 1].nested += incl;
+        else
+            c->isr_cycles_total += incl;
     }
     uint8_t timsk = avr->data[c->b->step_timsk] & (uint8_t)(1u << c->b->step_ocie);
-    if (timsk && !c->timsk_last)
+    int in_step = 0;
+    for (unsigned i = 0; i < c->n_frames; i++)
+        in_step |= c->frames[i].vec == c->b->step_vector;
+    if (timsk && !c->timsk_last && !in_step)
         c->timer_starts++;
     c->timsk_last = timsk;
     if (depth == 0 && c->n_fn > 0) {

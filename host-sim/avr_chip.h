@@ -19,9 +19,12 @@
  *     included, so RAM = data + bss + (RAMEND - lowest SP);
  *   - every interrupt: calls, cycles (first vector instruction through reti,
  *     plus the hardware's 4-cycle response, 5 on 3-byte-PC parts), longest;
- *   - the step timer's compare interrupt enable bit: every 0 -> 1 is a timer
- *     start (pk_machine_poll arming the timer), so a run that should be one
- *     continuous motion shows underruns as extra starts;
+ *     an interrupt that runs nested inside another (the step interrupt lets
+ *     the serial line in) is counted for itself only: `cycles` and `max` are
+ *     exclusive, `max_incl` includes what nested inside;
+ *   - the step timer's compare interrupt enable bit set outside the step
+ *     interrupt: a timer start (pk_machine_poll arming the timer), so a run
+ *     that should be one continuous motion shows underruns as extra starts;
  *   - optionally the cycles of each flash word executed inside the step
  *     interrupt (a flat profile), and the inclusive cycles of up to
  *     PK_AVRCHIP_MAX_FN functions outside interrupts.
@@ -78,7 +81,7 @@ const struct pk_avrchip_board *pk_avrchip_board_find(const char *name);
 
 /** Per-vector interrupt statistics, cycles. */
 struct pk_avrchip_isr {
-    uint64_t calls, cycles, max;
+    uint64_t calls, cycles, max, max_incl;
 };
 
 /** Inclusive cycles of one function (outside interrupts). */
@@ -123,8 +126,8 @@ struct pk_avrchip {
     /* private */
     struct pk_avrchip_tap { struct pk_avrchip *c; uint8_t kind, axis; } taps[3 * PK_AVRCHIP_MAX_AXES + 1];
     uint8_t level[3 * PK_AVRCHIP_MAX_AXES + 1];
-    uint8_t isr_vec;
-    uint64_t isr_t0;
+    struct pk_avrchip_frame { uint8_t vec; uint64_t t0, nested; } frames[8];
+    uint8_t n_frames;
     uint8_t timsk_last;
     int state;                        /**< simavr cpu state after the last step */
 };

@@ -623,8 +623,8 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
         if (!c->isr[v].calls)
             continue;
         fprintf(o, "%s\"%u\": {\"name\": \"%s\", \"calls\": %" PRIu64 ", \"cycles\": %" PRIu64
-                   ", \"max\": %" PRIu64 "}", first ? "" : ", ", v, vector_name(s->b, v), c->isr[v].calls,
-                c->isr[v].cycles, c->isr[v].max);
+                   ", \"max\": %" PRIu64 ", \"max_incl\": %" PRIu64 "}", first ? "" : ", ", v,
+                vector_name(s->b, v), c->isr[v].calls, c->isr[v].cycles, c->isr[v].max, c->isr[v].max_incl);
         first = 0;
     }
     fprintf(o, "},\n  \"functions\": {");

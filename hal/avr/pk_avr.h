@@ -45,8 +45,9 @@ struct pk_avr {
     volatile uint8_t armed;       /**< compare interrupt enabled */
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
-    /* servo (pk_avr_servo8.c: the frame counter of the gated 8-bit PWM) */
-    volatile uint8_t servo_phase;
+    /* servo */
+    volatile uint16_t servo_ocr;  /**< compare value to apply at the next safe point */
+    volatile uint8_t servo_phase; /**< pk_avr_servo8.c: period of the 5-period frame */
 };
 
 /** The image's one backend instance (defined in pk_avr_hal.c). */

@@ -4,9 +4,11 @@
  * pulse per PK_BOARD_SERVO16_FRAME_US (20 ms, exactly 50 Hz at clk/8), width
  * in steps of 1 / PK_BOARD_SERVO16_COUNTS_PER_US (0.5 us). No interrupt.
  *
- * The compare register is double-buffered (taken at BOTTOM), so a new width
- * never cuts a pulse; a 16-bit register write goes through the timer's TEMP
- * byte, so it is done with interrupts off (an ISR may also write it).
+ * A new width is written to the compare register by the timer's overflow
+ * interrupt, enabled for that one write, right after the counter wrapped:
+ * the hardware double-buffers the register anyway, but simavr applies a
+ * write at once, and a write in the middle of a period would make it draw a
+ * pulse the chip never makes.
  */
 #include "pk_avr.h"
 
@@ -28,7 +30,7 @@ static uint16_t ocr_for(uint16_t value_q16)
 
 void pk_avr_servo_init(struct pk_avr *a)
 {
-    (void)a;
+    a->servo_ocr = ocr_for(0u);
     PK_BOARD_SERVO16_TCCRB = 0u;
     PK_BOARD_SERVO16_ICR = (uint16_t)(PK_BOARD_SERVO16_FRAME_US * PK_BOARD_SERVO16_COUNTS_PER_US - 1u);
     PK_BOARD_SERVO16_OCR = ocr_for(0u);
@@ -38,11 +40,18 @@ void pk_avr_servo_init(struct pk_avr *a)
 
 int pk_avr_servo_write(void *ctx, uint16_t value_q16)
 {
-    (void)ctx;
+    struct pk_avr *a = ctx;
     uint16_t ocr = ocr_for(value_q16);
     uint8_t s = SREG;
     cli();
-    PK_BOARD_SERVO16_OCR = ocr;
+    a->servo_ocr = ocr;
+    PK_BOARD_SERVO16_TIMSK = (uint8_t)(PK_BOARD_SERVO16_TIMSK | _BV(PK_BOARD_SERVO16_TOIE));
     SREG = s;
     return PK_HAL_OK;
+}
+
+ISR(PK_BOARD_SERVO16_OVF_vect)
+{
+    PK_BOARD_SERVO16_OCR = pk_avr_board.servo_ocr;
+    PK_BOARD_SERVO16_TIMSK = (uint8_t)(PK_BOARD_SERVO16_TIMSK & (uint8_t)~_BV(PK_BOARD_SERVO16_TOIE));
 }

@@ -16,8 +16,11 @@
  *   phase 0: the compare match just ended the pulse: disconnect (the pin is
  *           then its PORT bit, low).
  *
- * The compare register is double-buffered (taken at BOTTOM), so a new width
- * never cuts a pulse. Width resolution: 16 us (62 steps over 1.0-2.0 ms).
+ * A new width is written in phase 0, right after the pulse ended, and takes
+ * effect at the next pulse: the hardware double-buffers the register anyway,
+ * but simavr applies a write at once, and a write while the output is
+ * connected would make it draw a pulse the chip never makes. Width
+ * resolution: 16 us (62 steps over 1.0-2.0 ms).
  */
 #include "pk_avr.h"
 
@@ -43,7 +46,8 @@ static uint8_t ocr_for(uint16_t value_q16)
 void pk_avr_servo_init(struct pk_avr *a)
 {
     a->servo_phase = 0u;
-    PK_BOARD_SERVO8_OCR = ocr_for(0u);
+    a->servo_ocr = ocr_for(0u);
+    PK_BOARD_SERVO8_OCR = (uint8_t)a->servo_ocr;
     PK_BOARD_SERVO8_TCCRA = PK_BOARD_SERVO8_WGM;
     PK_BOARD_SERVO8_TIMSK = (uint8_t)_BV(PK_BOARD_SERVO8_OCIE);
     PK_BOARD_SERVO8_TCCRB = PK_BOARD_SERVO8_CS;
@@ -51,8 +55,7 @@ void pk_avr_servo_init(struct pk_avr *a)
 
 int pk_avr_servo_write(void *ctx, uint16_t value_q16)
 {
-    (void)ctx;
-    PK_BOARD_SERVO8_OCR = ocr_for(value_q16);
+    ((struct pk_avr *)ctx)->servo_ocr = ocr_for(value_q16);
     return PK_HAL_OK;
 }
 
@@ -64,6 +67,8 @@ ISR(PK_BOARD_SERVO8_COMP_vect)
     pk_avr_board.servo_phase = p;
     if (p == SERVO8_PHASES - 1u)
         PK_BOARD_SERVO8_TCCRA = (uint8_t)(PK_BOARD_SERVO8_WGM | PK_BOARD_SERVO8_COM);
-    else if (p == 0u)
+    else if (p == 0u) {
         PK_BOARD_SERVO8_TCCRA = PK_BOARD_SERVO8_WGM;
+        PK_BOARD_SERVO8_OCR = (uint8_t)pk_avr_board.servo_ocr;
+    }
 }

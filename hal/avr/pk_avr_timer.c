@@ -5,13 +5,14 @@
  * interrupt counts wraps, so the clock is (overflows << 16 | TCNT), 48 bits
  * (four years at 2 MHz). A callback is scheduled on the compare unit:
  *
- *   service (interrupts off; from the compare ISR, or timer_start):
+ *   service (the compare ISR; timer_start only arms the first event):
  *     loop:  now = clock
  *            next further than PK_AVR_TIMER_LEAD ticks ahead?
  *                write its low 16 bits to OCR, clear a stale match flag,
  *                read TCNT again: still before OCR -> done (the compare will
  *                fire); passed meanwhile -> go round (it is due now)
- *            else: wait until now >= next, next = cb(arg, now); 0 -> stop
+ *            else: wait until now >= next, next = cb(arg, now) with
+ *                  interrupts on (this compare masked); 0 -> stop
  *
  * A next more than 65,536 ticks ahead matches at an earlier wrap of TCNT;
  * the ISR then finds it not yet due and arms it again. A callback is never
@@ -76,27 +77,42 @@ static inline __attribute__((always_inline)) uint32_t ahead_of(uint32_t next_hi,
     return (int32_t)(next_hi - now.hi) > 0 ? 0x20000u : 0u;
 }
 
+/* Write the compare register for next (more than LEAD ticks ahead). Returns
+ * 1 if the compare will fire for it, 0 if the counter passed it meanwhile. */
+static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a, uint32_t d)
+{
+    uint16_t at = a->next_lo;
+    PK_BOARD_STEP_OCR = at;
+    PK_BOARD_STEP_TIFR = _BV(PK_BOARD_STEP_OCF);
+    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 0;
+}
+
+/* The compare interrupt (interrupts off on entry). The callback itself runs
+ * with interrupts on and this compare masked, so the serial line, the clock
+ * overflow and the servo are served while it works (the receiver holds only
+ * two bytes: 170 us at 115200 baud) and the callback is never re-entered. */
 static void service(struct pk_avr *a)
 {
+    PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
     for (;;) {
         struct tick48 now = now_irqoff(a);
         uint32_t d = ahead_of(a->next_hi, a->next_lo, now);
         if (d > PK_AVR_TIMER_LEAD) {
-            uint16_t at = a->next_lo;
-            PK_BOARD_STEP_OCR = at;
-            PK_BOARD_STEP_TIFR = _BV(PK_BOARD_STEP_OCF);
-            if (d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 0)
+            if (arm(a, d)) {
+                PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
                 return;
+            }
             continue;
         }
         while (d > 0u) {
             now = now_irqoff(a);
             d = ahead_of(a->next_hi, a->next_lo, now);
         }
+        sei();
         uint64_t next = a->cb(a->cb_arg, t64(now));
+        cli();
         union pk_avr_u64 nb = { .v = next };
         if ((nb.b[0] | nb.b[1] | nb.b[2] | nb.b[3] | nb.b[4] | nb.b[5] | nb.b[6] | nb.b[7]) == 0u) {
-            PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
             a->armed = 0u;
             return;
         }
@@ -129,6 +145,9 @@ void pk_avr_timer_init(struct pk_avr *a)
     PK_BOARD_STEP_TCCRB = PK_BOARD_STEP_CS;
 }
 
+/* Only arms the compare: the first callback, like every other, runs from the
+ * interrupt (at the earliest PK_AVR_TIMER_LEAD + 1 ticks from now, which the
+ * core's absolute timing absorbs). */
 int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick)
 {
     struct pk_avr *a = ctx;
@@ -141,8 +160,19 @@ int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_
     a->next_lo = (uint16_t)first_tick;
     a->next_hi = (uint32_t)(first_tick >> 16);
     a->armed = 1u;
+    for (uint32_t margin = PK_AVR_TIMER_LEAD + 1u;; margin *= 2u) {
+        struct tick48 now = now_irqoff(a);
+        uint32_t d = ahead_of(a->next_hi, a->next_lo, now);
+        if (d <= PK_AVR_TIMER_LEAD) {
+            uint64_t t = t64(now) + margin;
+            a->next_lo = (uint16_t)t;
+            a->next_hi = (uint32_t)(t >> 16);
+            d = margin;
+        }
+        if (arm(a, d))
+            break;
+    }
     PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-    service(a);
     SREG = s;
     return PK_HAL_OK;
 }

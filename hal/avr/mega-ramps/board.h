@@ -80,6 +80,9 @@
 #define PK_BOARD_SERVO16_B ((uint8_t)(_BV(WGM13) | _BV(WGM12) | _BV(CS11)))
 #define PK_BOARD_SERVO16_ICR ICR1
 #define PK_BOARD_SERVO16_OCR OCR1A
+#define PK_BOARD_SERVO16_TIMSK TIMSK1
+#define PK_BOARD_SERVO16_TOIE TOIE1
+#define PK_BOARD_SERVO16_OVF_vect TIMER1_OVF_vect
 
 /* ---- pins ------------------------------------------------------------------ */
 /** Outputs and inputs (pull-ups) to their initial state: step, dir low,
