@@ -11,7 +11,10 @@
 # A board is a folder hal/<arch>/<board>/ with board.h (the only file naming
 # its pins, timers and vectors) and board.mk, which sets
 #   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
-#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_CFLAGS] [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
+#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_CFLAGS] [BOARD_HOST_DEFS] [BOARD_LDSCRIPT]
+#   [BOARD_KERNEL_LIMIT]
+# BOARD_HOST_DEFS: knobs that differ in $(FW_DIR)/<board>/host/plotkin, the
+# host tool built with the board's knobs (the comparator of the whole-chip tests).
 # BOARD_KERNEL_LIMIT = 0 links the image without the kernel's limit stage
 # (hal/pk_kernel_nolimit.c says why and how); default 1.
 # BOARD_SRC is the board's one source list (backend files + hal/pk_app.c +
@@ -44,6 +47,7 @@ BOARD_F_CPU :=
 BOARD_SRC :=
 BOARD_DEFS :=
 BOARD_CFLAGS :=
+BOARD_HOST_DEFS :=
 BOARD_LDSCRIPT :=
 BOARD_LDFLAGS :=
 BOARD_KERNEL_LIMIT := 1
@@ -60,6 +64,7 @@ FWB_$(2)_MFLAGS := $$(if $$(BOARD_MCU),-mmcu=$$(BOARD_MCU)) $$(BOARD_CPU) -DF_CP
                    $$(FW_ARCH_CFLAGS_$$(BOARD_ARCH)) $$(BOARD_CFLAGS)
 FWB_$(2)_CPPFLAGS := -Ifirmware -Ihal -Ihal/$$(BOARD_ARCH) -I$(1) $$(BOARD_DEFS)
 FWB_$(2)_SRC := $$(BOARD_SRC)
+FWB_$(2)_DEFS := $$(BOARD_DEFS) $$(BOARD_HOST_DEFS)
 FWB_$(2)_FLASH_MAX := $$(BOARD_FLASH_MAX)
 FWB_$(2)_RAM_MAX := $$(BOARD_RAM_MAX)
 FWB_$(2)_LDSCRIPT := $$(BOARD_LDSCRIPT)
@@ -81,7 +86,7 @@ $(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
 # only run when the kernel was set up with 3 dimensions, e.g. in cmd_refine.c.)
 $(FW_DIR)/$(2)/host/obj/%.o: %.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
-	$$(CC) $$(CPPFLAGS_COMMON) $$(WARN) -Wno-array-bounds $$(OPT) $$(BOARD_DEFS) -MMD -MP -c $$< -o $$@
+	$$(CC) $$(CPPFLAGS_COMMON) $$(WARN) -Wno-array-bounds $$(OPT) $$(FWB_$(2)_DEFS) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/host/plotkin: $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC) host-sim/main.c)
 	$$(CC) $$(OPT) -o $$@ $$^ $$(HOST_LIBS)
 $(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk

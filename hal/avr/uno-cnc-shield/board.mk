@@ -14,6 +14,11 @@ BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_
 # Shared register save/restore sequences: about 5 % less flash, a few cycles
 # more per call of a function that saves many registers.
 BOARD_CFLAGS := -mcall-prologues
+# The host comparator (`plotkin sim` with this build's knobs): plotkin sim's
+# job feeds a line only when 5 requests fit (host-sim/sim_job.c), so it needs
+# a deeper request FIFO than the Grbl engine on the board; the FIFO depth
+# does not change what the engine does.
+BOARD_HOST_DEFS := -UPK_MACHINE_INQ -DPK_MACHINE_INQ=8
 # ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
 BOARD_FLASH_MAX := 32256
 BOARD_RAM_MAX   := 2048
