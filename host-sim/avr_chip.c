@@ -101,6 +101,21 @@ unsigned pk_avrchip_isr_response(const struct pk_avrchip *c)
     (void)c;
     return 0;
 }
+int pk_avrchip_watch(struct pk_avrchip *c, const char *name, uint16_t addr)
+{
+    (void)c;
+    (void)name;
+    (void)addr;
+    return -1;
+}
+int pk_avrchip_peek(const struct pk_avrchip *c, uint16_t addr, void *out, size_t n)
+{
+    (void)c;
+    (void)addr;
+    (void)out;
+    (void)n;
+    return -1;
+}
 
 #else
 
@@ -355,6 +370,7 @@ static void step(struct pk_avrchip *c)
             c->frames[c->n_frames - 1].nested += incl;
         else
             c->isr_cycles_total += incl;
+        c->nest_acc[c->n_frames] += incl;
     }
     uint8_t timsk = avr->data[c->b->step_timsk] & (uint8_t)(1u << c->b->step_ocie);
     int in_step = 0;
@@ -363,19 +379,31 @@ static void step(struct pk_avrchip *c)
     if (timsk && !c->timsk_last && !in_step)
         c->timer_starts++;
     c->timsk_last = timsk;
-    if (depth == 0 && c->n_fn > 0) {
-        for (unsigned i = 0; i < c->n_fn; i++) {
-            struct pk_avrchip_fn *f = &c->fn[i];
-            if (f->active && sp > f->sp) {
+    for (unsigned i = 0; i < c->n_fn; i++) {
+        struct pk_avrchip_fn *f = &c->fn[i];
+        if (f->active) {
+            if (c->n_frames == f->level && sp > f->sp) {
+                uint64_t cyc = (avr->cycle - f->t0) - (c->nest_acc[f->level] - f->isr0);
                 f->active = 0;
                 f->calls++;
-                f->cycles += (avr->cycle - f->t0) - (c->isr_cycles_total - f->isr0);
-            } else if (!f->active && avr->pc == f->addr) {
-                f->active = 1;
-                f->sp = sp;
-                f->t0 = avr->cycle;
-                f->isr0 = c->isr_cycles_total;
+                f->cycles += cyc;
+                if (cyc > f->max)
+                    f->max = cyc;
             }
+        } else if (avr->pc == f->addr) {
+            f->active = 1;
+            f->level = c->n_frames;
+            f->sp = sp;
+            f->t0 = avr->cycle;
+            f->isr0 = c->nest_acc[f->level];
+        }
+    }
+    for (unsigned i = 0; i < c->n_watch; i++) {
+        struct pk_avrchip_watch *w = &c->watch[i];
+        uint8_t v = avr->data[w->addr];
+        if (v != w->last) {
+            w->changes++;
+            w->last = v;
         }
     }
 }
@@ -440,6 +468,22 @@ int pk_avrchip_track_fn(struct pk_avrchip *c, const char *name, uint32_t addr)
     if (c->n_fn >= PK_AVRCHIP_MAX_FN)
         return -1;
     c->fn[c->n_fn++] = (struct pk_avrchip_fn){ .name = name, .addr = addr };
+    return 0;
+}
+
+int pk_avrchip_watch(struct pk_avrchip *c, const char *name, uint16_t addr)
+{
+    if (c->n_watch >= PK_AVRCHIP_MAX_WATCH || addr > AV(c)->ramend)
+        return -1;
+    c->watch[c->n_watch++] = (struct pk_avrchip_watch){ name, addr, AV(c)->data[addr], 0 };
+    return 0;
+}
+
+int pk_avrchip_peek(const struct pk_avrchip *c, uint16_t addr, void *out, size_t n)
+{
+    if ((size_t)addr + n > (size_t)AV(c)->ramend + 1u)
+        return -1;
+    memcpy(out, AV(c)->data + addr, n);
     return 0;
 }
 

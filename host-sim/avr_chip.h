@@ -44,7 +44,7 @@
 #include "sim_trace.h"
 
 #define PK_AVRCHIP_MAX_AXES 3
-#define PK_AVRCHIP_MAX_FN 8
+#define PK_AVRCHIP_MAX_FN 12
 #define PK_AVRCHIP_VECTORS 64
 
 /** One pin: port letter and bit. port 0 = not wired. */
@@ -84,16 +84,27 @@ struct pk_avrchip_isr {
     uint64_t calls, cycles, max, max_incl;
 };
 
-/** Inclusive cycles of one function (outside interrupts). */
+/** Inclusive cycles of one function, wherever it runs (main loop or an
+ *  interrupt), less the interrupts that nested inside its calls. */
 struct pk_avrchip_fn {
     const char *name;
     uint32_t addr;                    /**< byte address of its first instruction */
-    uint64_t calls, cycles;
+    uint64_t calls, cycles, max;
     /* private: the call in progress */
     int active;
-    uint16_t sp;                      /**< SP right after the call pushed its return address */
+    uint8_t level;                    /**< interrupt nesting level it runs at */
+    uint16_t sp;                      /**< SP at its first instruction */
     uint64_t t0, isr0;
 };
+
+/** A RAM byte whose changes are counted (e.g. a ring's head index). */
+struct pk_avrchip_watch {
+    const char *name;
+    uint16_t addr;
+    uint8_t last;
+    uint64_t changes;
+};
+#define PK_AVRCHIP_MAX_WATCH 4
 
 struct pk_avrchip {
     const struct pk_avrchip_board *b;
@@ -121,6 +132,8 @@ struct pk_avrchip {
     uint64_t timer_starts;            /**< step-timer compare interrupt enabled 0 -> 1 */
     struct pk_avrchip_fn fn[PK_AVRCHIP_MAX_FN];
     unsigned n_fn;
+    struct pk_avrchip_watch watch[PK_AVRCHIP_MAX_WATCH];
+    unsigned n_watch;
     uint64_t *hist;                   /**< if not NULL: cycles per flash word inside the step ISR */
     size_t hist_words;
     /* private */
@@ -128,6 +141,7 @@ struct pk_avrchip {
     uint8_t level[3 * PK_AVRCHIP_MAX_AXES + 1];
     struct pk_avrchip_frame { uint8_t vec; uint64_t t0, nested; } frames[8];
     uint8_t n_frames;
+    uint64_t nest_acc[9];             /**< cycles of interrupts entered directly at each level */
     uint8_t timsk_last;
     int state;                        /**< simavr cpu state after the last step */
 };
@@ -173,6 +187,12 @@ unsigned pk_avrchip_ram_bytes(const struct pk_avrchip *c);
 /** Track the inclusive cycles of a function at byte address addr (from the
  *  image's ELF). Returns 0, or -1 if the table is full. */
 int pk_avrchip_track_fn(struct pk_avrchip *c, const char *name, uint32_t addr);
+
+/** Count the changes of the RAM byte at data address addr. 0, or -1 if full. */
+int pk_avrchip_watch(struct pk_avrchip *c, const char *name, uint16_t addr);
+
+/** Copy n bytes of data memory at addr (0, or -1 out of range). */
+int pk_avrchip_peek(const struct pk_avrchip *c, uint16_t addr, void *out, size_t n);
 
 /** Cycles of the hardware's interrupt response added to every ISR. */
 unsigned pk_avrchip_isr_response(const struct pk_avrchip *c);

@@ -24,7 +24,8 @@
 static const char avrsim_usage[] =
     "usage: plotkin avrsim FIRMWARE.hex [--board NAME] --run PROGRAM [--config FILE] [--json]\n"
     "                      [--trace OUT.csv] [--at SECONDS:EVENT]... [--timeout SECONDS]\n"
-    "                      [--driver NAME] [--elf FILE [--profile]]\n"
+    "                      [--driver NAME] [--elf FILE [--profile]] [--watch N:ADDR]...\n"
+    "                      [--peek N:ADDR:BYTES]...\n"
     "       plotkin avrsim FIRMWARE.hex [--board NAME] --link PATH [--speed X]\n"
     "\n"
     "Runs the Intel HEX image of a board (what `make firmware` writes, what would be\n"
@@ -43,6 +44,8 @@ static const char avrsim_usage[] =
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --elf FILE       the image's ELF (symbols): also measure the main-loop functions;\n"
     "                   --profile adds a flat cycle profile of the step interrupt\n"
+    "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
+    "  --peek N:ADDR:B  report the B-byte little-endian value at ADDR at the end\n"
     "  --link PATH      make a pseudo-terminal, symlink PATH to it and connect it to the\n"
     "                   emulated serial port until SIGINT/SIGTERM; --speed X runs the\n"
     "                   emulation X times real time at most (default 1; 0 = as fast as it can)\n"
@@ -574,6 +577,14 @@ static const char *vector_name(const struct pk_avrchip_board *b, unsigned v)
     return v == 35 ? "step_overflow" : v == 25 ? "uart_rx" : v == 26 ? "uart_tx" : "other";
 }
 
+struct peek_req {
+    char name[32];
+    uint16_t addr;
+    unsigned len;
+};
+static struct peek_req peek[4];
+static unsigned n_peek;
+
 static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct run_report *r,
                        const struct sym *syms, size_t nsyms, int profile)
 {
@@ -629,8 +640,20 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
     }
     fprintf(o, "},\n  \"functions\": {");
     for (unsigned i = 0; i < c->n_fn; i++)
-        fprintf(o, "%s\"%s\": {\"calls\": %" PRIu64 ", \"cycles\": %" PRIu64 "}", i ? ", " : "",
-                c->fn[i].name, c->fn[i].calls, c->fn[i].cycles);
+        fprintf(o, "%s\"%s\": {\"calls\": %" PRIu64 ", \"cycles\": %" PRIu64 ", \"max\": %" PRIu64 "}",
+                i ? ", " : "", c->fn[i].name, c->fn[i].calls, c->fn[i].cycles, c->fn[i].max);
+    fprintf(o, "},\n  \"watches\": {");
+    for (unsigned i = 0; i < c->n_watch; i++)
+        fprintf(o, "%s\"%s\": %" PRIu64, i ? ", " : "", c->watch[i].name, c->watch[i].changes);
+    fprintf(o, "},\n  \"peeks\": {");
+    for (unsigned i = 0; i < n_peek; i++) {
+        uint8_t b[8] = { 0 };
+        uint64_t v = 0;
+        if (pk_avrchip_peek(c, peek[i].addr, b, peek[i].len) == 0)
+            for (unsigned k = peek[i].len; k-- > 0;)
+                v = v << 8 | b[k];
+        fprintf(o, "%s\"%s\": %" PRIu64, i ? ", " : "", peek[i].name, v);
+    }
     fprintf(o, "}");
     if (profile && c->hist != NULL) {
         /* flat profile of the step interrupt: cycles per function */
@@ -774,6 +797,9 @@ int cmd_avrsim(int argc, char **argv)
     double timeout = 600.0, speed = 1.0;
     struct at_event at[AT_MAX];
     unsigned n_at = 0;
+    static char watch_name[4][32];
+    int watch_addr[4];
+    unsigned n_watch = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -802,6 +828,22 @@ int cmd_avrsim(int argc, char **argv)
             timeout = atof(v), i++;
         } else if (v != NULL && !strcmp(a, "--speed")) {
             speed = atof(v), i++;
+        } else if (v != NULL && !strcmp(a, "--watch")) {
+            if (n_watch == 4 || sscanf(v, "%31[^:]:%i", watch_name[n_watch], &watch_addr[n_watch]) != 2) {
+                fprintf(stderr, "plotkin avrsim: bad --watch '%s' (NAME:ADDRESS, at most 4)\n", v);
+                return 2;
+            }
+            n_watch++, i++;
+        } else if (v != NULL && !strcmp(a, "--peek")) {
+            int ad, ln;
+            if (n_peek == 4 || sscanf(v, "%31[^:]:%i:%i", peek[n_peek].name, &ad, &ln) != 3 || ln < 1 ||
+                ln > 8 || ad < 0 || ad > 0xFFFF) {
+                fprintf(stderr, "plotkin avrsim: bad --peek '%s' (NAME:ADDRESS:BYTES, 1..8 bytes, at most 4)\n", v);
+                return 2;
+            }
+            peek[n_peek].addr = (uint16_t)ad;
+            peek[n_peek].len = (unsigned)ln;
+            n_peek++, i++;
         } else if (v != NULL && !strcmp(a, "--at")) {
             if (n_at == AT_MAX || parse_at(v, &at[n_at]) != 0) {
                 fprintf(stderr, "plotkin avrsim: bad --at '%s' (SECONDS:hold|resume|reset|status, at most %d)\n",
@@ -857,13 +899,21 @@ int cmd_avrsim(int argc, char **argv)
             fclose(csv);
         return 1;
     }
+    for (unsigned i = 0; i < n_watch; i++)
+        if (pk_avrchip_watch(&s.chip, watch_name[i], (uint16_t)watch_addr[i]) != 0) {
+            fprintf(stderr, "plotkin avrsim: --watch %s: address 0x%x outside the data memory\n",
+                    watch_name[i], watch_addr[i]);
+            pk_avrchip_close(&s.chip);
+            return 2;
+        }
     struct sym *syms = NULL;
     size_t nsyms = 0;
     if (elf != NULL) {
         nsyms = read_syms(elf, &syms);
         static const char *const fns[] = { "pk_grbl_poll", "pk_machine_poll", "pk_gcode_parse",
-                                           "pk_gcode_interp", "pk_refine_pull", "pk_sg_prep",
-                                           "pk_planner_add_line", "pk_planner_replan" };
+                                           "pk_gcode_interp", "pk_refine_pull", "pk_stroke_pull",
+                                           "pk_sg_prep", "pk_planner_add_line", "pk_planner_replan",
+                                           "pk_machine_timer_cb", "pk_sg_isr" };
         for (size_t i = 0; i < sizeof fns / sizeof fns[0]; i++) {
             const struct sym *y = sym_find(syms, nsyms, fns[i]);
             if (y != NULL)

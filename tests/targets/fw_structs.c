@@ -29,3 +29,13 @@ PK_SIZEOF(pk_gc_state, struct pk_gc_state);
 PK_SIZEOF(pk_gc_cmd, struct pk_gc_cmd);
 PK_SIZEOF(pk_bez, struct pk_bez);
 PK_SIZEOF(pk_grbl_settings, struct pk_grbl_settings);
+
+/* Offsets in struct pk_app of what the AVR benchmark watches in RAM (array
+ * size = offset + 1, so that offset 0 is representable). */
+#include <stddef.h>
+#define PK_OFFSETOF(name, member)                                           \
+    extern const unsigned char pk_offsetof_##name[offsetof(struct pk_app, member) + 1]; \
+    const unsigned char pk_offsetof_##name[offsetof(struct pk_app, member) + 1] = { 1 }
+
+PK_OFFSETOF(sg_head, m.sg.head);
+PK_OFFSETOF(lines_planned, m.lines_planned);
