@@ -13,7 +13,7 @@ knobs (BUILD/firmware/<board>/host/plotkin). Checked per run:
   - the same number of steps per axis and the same final position, exactly;
   - 0 driver timing violations (DRV8825), no step while a driver is disabled;
   - the firmware's own final report (MPos) equals the position decoded from
-    the pins, exactly;
+    the pins, exactly; the deepest stack stays clear of .data + .bss;
   - the pen servo's frame and pulse widths are the board's;
   - feed hold: the machine stops, reports exactly where the pins say it is,
     does not move until resumed, and then ends exactly where the unheld run
@@ -59,6 +59,13 @@ def run(cmd, timeout=600):
         return json.loads(p.stdout), p
     except ValueError:
         return None, p
+
+
+def static_ram(board):
+    elf = os.path.join(BUILD, 'firmware', board, board + '.elf')
+    out = subprocess.run(['avr-size', '-A', elf], capture_output=True, text=True, check=True).stdout
+    sz = {f[0]: int(f[1]) for f in (ln.split() for ln in out.splitlines()) if len(f) >= 2 and f[1].isdigit()}
+    return sz.get('.data', 0) + sz.get('.bss', 0) + sz.get('.noinit', 0)
 
 
 def write(tmp, name, text):
@@ -120,6 +127,9 @@ def one_board(board, tmp):
               sv['pulses'] > 0 and abs(sv['period_ms'][0] - frame) < 0.01 and
               abs(sv['period_ms'][1] - frame) < 0.01 and abs(sv['width_us'][0] - w0) <= res and
               abs(sv['width_us'][1] - w1) <= res and got['pen_changes'] >= 2, (sv, got['pen_changes']))
+        static = static_ram(board)
+        check(tag + ': the deepest stack stays clear of .data + .bss (%d B)' % static,
+              static + got['stack_bytes'] <= got['ram_bytes'], (static, got['stack_bytes'], got['ram_bytes']))
         print('# %s: motion %.2f s on the chip, plotkin sim %.2f s; %d underruns; stack %d B'
               % (tag, got['motion_s'], want['sim_time_s'], underruns, got['stack_bytes']))
     # realtime bytes on the chip

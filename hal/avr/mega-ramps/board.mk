@@ -8,7 +8,7 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
                hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo16.c hal/pk_app.c hal/pk_uart.c
 # Three axes, every scheme the motion core uses (the default PK_WIN), queues
 # sized for 8 KB of RAM.
-BOARD_DEFS  := -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8
+BOARD_DEFS  := -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64
 # ATmega2560 with the stock STK500v2 bootloader (8 KB): 262,144 - 8,192 B of
 # flash, 8,192 B of RAM.
 BOARD_FLASH_MAX := 253952
