@@ -11,8 +11,12 @@
 # A board is a folder hal/<arch>/<board>/ with board.h (the only file naming
 # its pins, timers and vectors) and board.mk, which sets
 #   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
-#   BOARD_FLASH_MAX BOARD_RAM_MAX [BOARD_CFLAGS] [BOARD_HOST_DEFS] [BOARD_LDSCRIPT]
-#   [BOARD_KERNEL_LIMIT]
+#   BOARD_FLASH_MAX BOARD_RAM_MAX BOARD_STEP_ISR BOARD_STATICS [BOARD_CFLAGS]
+#   [BOARD_HOST_DEFS] [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
+# Every image's objects, firmware and board alike, pass tests/targets/fwcheck.py
+# (no heap, stdio, float; no software divide on the step path, followed from
+# the board's step-timer interrupt handler BOARD_STEP_ISR as well as from the
+# core's step functions; static storage only for BOARD_STATICS, OBJ.o:SYMBOL).
 # BOARD_HOST_DEFS: knobs that differ in $(FW_DIR)/<board>/host/plotkin, the
 # host tool built with the board's knobs (the comparator of the whole-chip tests).
 # BOARD_KERNEL_LIMIT = 0 links the image without the kernel's limit stage
@@ -36,6 +40,7 @@ FW_BIN_arm  := $(ARM_PREFIX)
 # -mrelax: calls and jumps within reach become rcall/rjmp (smaller, a cycle faster)
 FW_ARCH_CFLAGS_avr := -mrelax
 FW_RELAX_avr := -Wl,--defsym=__TEXT_REGION_LENGTH__=0x40000 -Wl,--defsym=__DATA_REGION_LENGTH__=0xffa0
+FW_RELAX_arm := -Wl,--defsym=__pk_flash_len=0x100000 -Wl,--defsym=__pk_ram_len=0x100000
 FW_NOLIMIT_LDFLAGS := $(foreach f,setup ready exhausted feed finish emit,-Wl,--wrap=pk_limit_$(f))
 
 # $(call fw_board,DIR,NAME): read DIR/board.mk into FWB_NAME_* and make rules
@@ -51,6 +56,8 @@ BOARD_HOST_DEFS :=
 BOARD_LDSCRIPT :=
 BOARD_LDFLAGS :=
 BOARD_KERNEL_LIMIT := 1
+BOARD_STEP_ISR :=
+BOARD_STATICS :=
 include $(1)/board.mk
 ifeq ($$(BOARD_KERNEL_LIMIT),0)
 BOARD_SRC += hal/pk_kernel_nolimit.c
@@ -69,6 +76,9 @@ FWB_$(2)_FLASH_MAX := $$(BOARD_FLASH_MAX)
 FWB_$(2)_RAM_MAX := $$(BOARD_RAM_MAX)
 FWB_$(2)_LDSCRIPT := $$(BOARD_LDSCRIPT)
 FWB_$(2)_LDFLAGS := $$(BOARD_LDFLAGS) $$(FW_RELAX_$$(BOARD_ARCH))
+FWB_$(2)_CHECK := $$(foreach f,$$(TARGETS_STEP_FUNCS) $$(BOARD_STEP_ISR),--step-func $$(f)) \
+                  $$(foreach x,$$(BOARD_STATICS),--allow-static $$(x)) \
+                  --target $(2):$$(FW_BIN_$$(BOARD_ARCH)):no
 FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(TGT_FW_SRC) $$(BOARD_SRC))
 
 $(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c $(1)/board.mk hal/firmware.mk
@@ -103,11 +113,18 @@ firmware:
 	@bash .ci/deps.sh base targets
 	@$(MAKE) --no-print-directory firmware-build
 
+# The object gate, per image.
+FW_GATE = $(foreach b,$(FW_BOARDS),out=$$($(PYTHON3) tests/targets/fwcheck.py $(FWB_$(b)_CHECK) $(FWB_$(b)_OBJ)) \
+            || { printf '%s\n' "$$out" | grep -v '^$(b) '; echo "fwcheck failed on the $(b) image"; exit 1; }; \
+            printf '%s\n' "$$out" | grep -E '^(fwcheck|note: .*static)' | sed 's/^/  $(b): /';) true
+
 firmware-build: $(FW_ELFS) $(BUILD)/plotkin
+	@$(FW_GATE)
 	@$(PYTHON3) tests/targets/fwsize.py --plotkin $(BUILD)/plotkin --workload tests/avr/workload.gcode \
 	  --detail $(FW_SIZE_ARGS)
 
 firmware-images: $(FW_ELFS)
+	@$(FW_GATE)
 	@$(PYTHON3) tests/targets/fwsize.py --hex-only $(FW_SIZE_ARGS)
 
 # ---- the simavr whole-chip harness (host-sim/avr_chip.c, `plotkin avrsim`) ----

@@ -97,6 +97,29 @@ static void test_the_drop_count_carries_across_bytes_and_events_survive_wrapping
     TH_EXPECT_EQ(lost, 70599u); /* 70000 + sum over ev = 1..299 of 1 + ev % 3 */
 }
 
+/* A byte the UART hardware lost (overrun, framing error) is reported exactly
+ * like one the ring had no room for: where it went missing, once. */
+static void test_a_byte_lost_by_the_hardware_is_reported_where_it_went_missing(void)
+{
+    static struct pk_uart u;
+    pk_uart_init(&u, NULL, NULL);
+    const char *a = "G1 X1\n", *b = "G1 X2\n";
+    for (const char *p = a; *p; p++)
+        TH_ASSERT_EQ(pk_uart_rx_push(&u, (uint8_t)*p), PK_UART_RX_STORED);
+    pk_uart_rx_lost(&u);
+    pk_uart_rx_lost(&u); /* a run of losses is one event */
+    for (const char *p = b; *p; p++)
+        TH_ASSERT_EQ(pk_uart_rx_push(&u, (uint8_t)*p), PK_UART_RX_STORED);
+    TH_EXPECT_EQ(pk_uart_rx_dropped(&u), 2);
+    uint8_t buf[32];
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), (int)strlen(a));
+    TH_EXPECT(memcmp(buf, a, strlen(a)) == 0);
+    TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_HAL_EIO);
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), (int)strlen(b));
+    TH_EXPECT(memcmp(buf, b, strlen(b)) == 0);
+    TH_EXPECT(!pk_uart_rx_overflow_pending(&u));
+}
+
 struct rt_log { uint8_t seen[16]; int n; };
 static int rt_filter(void *ctx, uint8_t b)
 {
@@ -231,6 +254,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_bytes_come_out_in_order_across_many_wraparounds),
         TH_CASE(test_the_rx_ring_holds_exactly_its_size_and_counts_every_lost_byte),
         TH_CASE(test_the_drop_count_carries_across_bytes_and_events_survive_wrapping),
+        TH_CASE(test_a_byte_lost_by_the_hardware_is_reported_where_it_went_missing),
         TH_CASE(test_realtime_bytes_are_claimed_and_never_stored_even_when_full),
         TH_CASE(test_tx_accepts_only_what_fits_and_pops_in_order),
         TH_CASE(test_a_pty_client_and_the_shim_exchange_bytes_both_ways),

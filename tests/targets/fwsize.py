@@ -8,7 +8,7 @@
 
 For every board image (linked with relaxed memory regions, so that an image
 that does not fit is still measured) it reads from the ELF and its linker map:
-  flash = .text + .data (what the bootloader writes),
+  flash = .text (+ .rodata, .ARM.exidx) + .data (what the bootloader writes),
   RAM   = .data + .bss + the stack measured at its deepest while the image
           runs the workload on an emulated chip (`plotkin avrsim`, simavr;
           only for images that fit their part's flash),
@@ -177,7 +177,8 @@ def main(argv):
     for b in boards:
         elf, binp = b['elf'], b['bin']
         sz = sections(binp, elf)
-        text, data, bss = sz.get('.text', 0), sz.get('.data', 0), sz.get('.bss', 0) + sz.get('.noinit', 0)
+        text = sz.get('.text', 0) + sz.get('.ARM.exidx', 0) + sz.get('.rodata', 0)
+        data, bss = sz.get('.data', 0), sz.get('.bss', 0) + sz.get('.noinit', 0)
         flash = text + data
         static = data + bss
         hexf = elf[:-4] + '.hex'

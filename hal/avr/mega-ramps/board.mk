@@ -15,3 +15,7 @@ BOARD_FLASH_MAX := 253952
 BOARD_RAM_MAX   := 8192
 # The motion core never uses the kernel's limit stage: link without it.
 BOARD_KERNEL_LIMIT := 0
+# The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
+# image's only statics (the controller and the backend instance).
+BOARD_STEP_ISR := __vector_32
+BOARD_STATICS  := pk_avr_main.o:app pk_avr_hal.o:pk_avr_board

@@ -24,3 +24,7 @@ BOARD_FLASH_MAX := 32256
 BOARD_RAM_MAX   := 2048
 # The motion core never uses the kernel's limit stage: link without it.
 BOARD_KERNEL_LIMIT := 0
+# The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
+# image's only statics (the controller and the backend instance).
+BOARD_STEP_ISR := __vector_11
+BOARD_STATICS  := pk_avr_main.o:app pk_avr_hal.o:pk_avr_board
