@@ -574,7 +574,7 @@ static const char *vector_name(const struct pk_avrchip_board *b, unsigned v)
         return "step_timer";
     if (strcmp(b->mcu, "atmega328p") == 0)
         return v == 13 ? "step_overflow" : v == 18 ? "uart_rx" : v == 19 ? "uart_tx" : v == 7 ? "servo" : "other";
-    return v == 35 ? "step_overflow" : v == 25 ? "uart_rx" : v == 26 ? "uart_tx" : "other";
+    return v == 35 ? "step_overflow" : v == 25 ? "uart_rx" : v == 26 ? "uart_tx" : v == 20 ? "servo" : "other";
 }
 
 struct peek_req {
