@@ -34,7 +34,7 @@ SEC1 = re.compile(r'^ (\.[A-Za-z0-9_.$]+)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.
 SEC_NAME = re.compile(r'^ (\.[A-Za-z0-9_.$]+)$')
 SEC2 = re.compile(r'^\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)\s+(\S.*)$')
 OUT_SEC = re.compile(r'^(\.[A-Za-z0-9_.]+)\s+0x([0-9a-f]+)\s+0x([0-9a-f]+)')
-HELPER64 = re.compile(r'^__\w*di[0-9]?(_s8)?$|^__u?divmod64|^__u?mulsidi3$|^__umulhisi3$'
+HELPER64 = re.compile(r'^__\w*di[0-9]?(_s8)?$|^__u?divmod64|^__u?mulsidi3$'
                       r'|^__aeabi_(u?ldivmod|lmul|llsl|llsr|lasr|u?lcmp)$')
 DIV64 = re.compile(r'^__(u?div|u?mod)di3$|^__u?divmod64|^__aeabi_u?ldivmod$')
 
