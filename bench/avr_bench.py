@@ -88,9 +88,43 @@ def fnc(d, name):
     return (f['calls'], f['cycles'], f['max']) if f else (0, 0, 0)
 
 
+def line_profile(elf, histf, syms, fn, steps, top=10):
+    """Cycles of the step interrupt inside fn, by source line (addr2line)."""
+    if fn not in syms:
+        return
+    lo, size = syms[fn]
+    rows = []
+    for ln in open(histf):
+        a, c = ln.split()
+        a = int(a, 16)
+        if lo <= a < lo + size:
+            rows.append((a, int(c)))
+    if not rows:
+        return
+    out = subprocess.run(['avr-addr2line', '-e', elf] + ['0x%x' % a for a, _ in rows],
+                         capture_output=True, text=True).stdout.split('\n')
+    per = {}
+    for (a, c), loc in zip(rows, out):
+        loc = re.sub(r' \(discriminator \d+\)', '', loc.strip())
+        per[loc] = per.get(loc, 0) + c
+    tot = sum(per.values())
+    print('  %s by source line (%% of its %d cycles; the lines that cost most):' % (fn, tot))
+    for loc, c in sorted(per.items(), key=lambda kv: -kv[1])[:top]:
+        src = ''
+        m = re.match(r'(.*):(\d+)$', loc)
+        if m and os.path.exists(m.group(1)):
+            lines = open(m.group(1)).read().split('\n')
+            k = int(m.group(2))
+            if 0 < k <= len(lines):
+                src = lines[k - 1].strip()[:60]
+        print('    %5.1f%% %6.0f cyc/step  %-28s %s' % (100.0 * c / tot, c / steps,
+                                                       os.path.relpath(loc) if m else loc, src))
+
+
 def drawing(board, name, prog, conf, tmp, elf, syms):
     app = syms.get('app')
-    extra = ['--elf', elf, '--profile']
+    histf = os.path.join(tmp, 'hist.txt')
+    extra = ['--elf', elf, '--profile', '--hist', histf]
     if app is not None:
         base = app[0] & 0xFFFF
         extra += ['--watch', 'chunks:%d' % (base + OFFS['sg_head']),
@@ -147,6 +181,7 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
             if k.startswith('__vector_'):
                 k += ' (HAL: the ISR with service() inlined)'
             print('    %5.1f%%  %-46s %8.0f cycles/step' % (100.0 * v / tot, k, v / steps))
+        line_profile(elf, histf, syms, 'pk_sg_isr', steps)
     return d
 
 

@@ -43,7 +43,8 @@ static const char avrsim_usage[] =
     "  --trace OUT.csv  every pin edge (tick = CPU cycle)\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --elf FILE       the image's ELF (symbols): also measure the main-loop functions;\n"
-    "                   --profile adds a flat cycle profile of the step interrupt\n"
+    "                   --profile adds a flat cycle profile of the step interrupt;\n"
+    "                   --hist FILE writes its cycles per flash address (`ADDR CYCLES`)\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
     "  --peek N:ADDR:B  report the B-byte little-endian value at ADDR at the end\n"
     "  --link PATH      make a pseudo-terminal, symlink PATH to it and connect it to the\n"
@@ -792,7 +793,7 @@ static int link_mode(struct avrsim *s, const char *link, double speed)
 int cmd_avrsim(int argc, char **argv)
 {
     const char *hex = NULL, *board = "uno-cnc-shield", *run = NULL, *config = NULL, *trace = NULL;
-    const char *link = NULL, *driver = "drv8825", *elf = NULL;
+    const char *link = NULL, *driver = "drv8825", *elf = NULL, *hist_out = NULL;
     int json = 0, profile = 0;
     double timeout = 600.0, speed = 1.0;
     struct at_event at[AT_MAX];
@@ -810,6 +811,8 @@ int cmd_avrsim(int argc, char **argv)
             json = 1;
         } else if (!strcmp(a, "--profile")) {
             profile = 1;
+        } else if (v != NULL && !strcmp(a, "--hist")) {
+            hist_out = v, i++, profile = 1;
         } else if (v != NULL && !strcmp(a, "--board")) {
             board = v, i++;
         } else if (v != NULL && !strcmp(a, "--run")) {
@@ -957,6 +960,14 @@ int cmd_avrsim(int argc, char **argv)
         }
         free(ln);
         free(text);
+    }
+    if (hist_out != NULL && s.chip.hist != NULL) {
+        FILE *hf = fopen(hist_out, "w");
+        for (size_t w = 0; hf != NULL && w < s.chip.hist_words; w++)
+            if (s.chip.hist[w])
+                fprintf(hf, "0x%zx %" PRIu64 "\n", 2u * w, s.chip.hist[w]);
+        if (hf == NULL || fclose(hf) != 0)
+            fprintf(stderr, "plotkin avrsim: cannot write %s\n", hist_out);
     }
     if (csv)
         fclose(csv);
