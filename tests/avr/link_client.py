@@ -9,74 +9,14 @@ middle of a line, feed hold and resume, soft reset in motion (ALARM:3, $X),
 and the final position exactly where the program ends. Every wait has a
 deadline. Prints "ok ..." / "not ok ..." and "N passed, N failed" last.
 """
-import re
+import os
 import sys
 import time
 
-import serial
-
-results = []
-
-
-def check(name, cond, detail=''):
-    results.append(bool(cond))
-    print(('ok ' if cond else 'not ok ') + name)
-    if not cond and detail:
-        print('  ' + str(detail)[:400])
-
-
-class Grbl:
-    def __init__(self, path):
-        self.s = serial.Serial(path, 115200, timeout=0.05)
-        self.buf = b''
-
-    def readline(self, deadline):
-        while b'\n' not in self.buf:
-            if time.monotonic() > deadline:
-                raise TimeoutError('no line; have %r' % self.buf[-200:])
-            self.buf += self.s.read(self.s.in_waiting or 1)
-        line, self.buf = self.buf.split(b'\n', 1)
-        return line.rstrip(b'\r').decode('ascii', 'replace')
-
-    def write(self, data):
-        self.s.write(data)
-
-    def wait_for(self, pred, timeout=20.0):
-        deadline = time.monotonic() + timeout
-        seen = []
-        while True:
-            line = self.readline(deadline)
-            if pred(line):
-                return line, seen
-            seen.append(line)
-
-    def answer(self, timeout=20.0):
-        line, _ = self.wait_for(lambda l: l == 'ok' or l.startswith('error:'), timeout)
-        return 0 if line == 'ok' else int(line[6:])
-
-    def status(self, timeout=10.0):
-        self.write(b'?')
-        line, _ = self.wait_for(lambda l: l.startswith('<') and l.endswith('>'), timeout)
-        return line
-
-    def wait_state(self, states, timeout=60.0):
-        deadline = time.monotonic() + timeout
-        st = ''
-        while time.monotonic() < deadline:
-            st = self.status()
-            if st[1:].split('|')[0] in states:
-                return st
-            time.sleep(0.02)
-        raise TimeoutError('state never in %s (last %s)' % (states, st))
-
-
-def mpos(status):
-    m = re.search(r'MPos:([-\d.]+),([-\d.]+),([-\d.]+)', status)
-    return tuple(float(v) for v in m.groups()) if m else None
-
-
-def near(a, b):
-    return a is not None and all(abs(p - q) < 1e-9 for p, q in zip(a, b))
+# The sender of the `plotkin serve` tests (pyserial, with deadlines): the
+# same client, pointed at the emulated board.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+from serve_client import Grbl, check, mpos, near, results  # noqa: E402
 
 
 def main():
