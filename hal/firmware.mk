@@ -99,6 +99,15 @@ $(FW_DIR)/$(2)/host/obj/%.o: %.c $(1)/board.mk hal/firmware.mk
 	$$(CC) $$(CPPFLAGS_COMMON) $$(WARN) -Wno-array-bounds $$(OPT) $$(FWB_$(2)_DEFS) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/host/plotkin: $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC) host-sim/main.c)
 	$$(CC) $$(OPT) -o $$@ $$^ $$(HOST_LIBS)
+# The backend alone on the board's part (tests/avr/hal_selftest.c): runs even
+# while the full image does not fit.
+$(FW_DIR)/$(2)/obj/tests/avr/%.o: tests/avr/%.c $(1)/board.mk hal/firmware.mk
+	@mkdir -p $$(@D)
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
+$(FW_DIR)/$(2)/hal_selftest.hex: $(FW_DIR)/$(2)/obj/tests/avr/hal_selftest.o \
+    $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(filter-out %_main.c hal/pk_app.c hal/pk_kernel_nolimit.c,$$(BOARD_SRC)))
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -o $$(@:.hex=.elf) $$^
+	$$(FWB_$(2)_BIN)objcopy -O ihex -R .eeprom $$(@:.hex=.elf) $$@
 $(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) -std=c11 $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@

@@ -177,6 +177,10 @@ static void servo_edge(struct pk_avrchip *c, uint64_t t, int level)
     uint64_t w = t - c->servo_rise;
     c->servo_pulses++;
     c->servo_width_last = w;
+    uint64_t tol = 4u * (c->b->f_cpu / 1000000u);
+    uint64_t prev = c->n_servo_widths ? c->servo_widths[c->n_servo_widths - 1u] : 0u;
+    if (c->n_servo_widths < 16u && (c->n_servo_widths == 0u || (w > prev ? w - prev : prev - w) > tol))
+        c->servo_widths[c->n_servo_widths++] = w;
     if (c->servo_width_min == 0u || w < c->servo_width_min)
         c->servo_width_min = w;
     if (w > c->servo_width_max)

@@ -124,6 +124,9 @@ struct pk_avrchip {
     uint64_t servo_period_min, servo_period_max; /**< cycles between rising edges */
     uint64_t servo_width_min, servo_width_max;   /**< cycles high */
     uint64_t servo_width_last;
+    uint64_t servo_widths[16];        /**< the first 16 widths seen, each change of more
+                                           than 4 us recorded once (cycles) */
+    unsigned n_servo_widths;
     int pen;                          /**< logical pen level decoded (-1 unknown) */
     /* measurements */
     uint16_t sp_min;                  /**< lowest SP seen */

@@ -574,7 +574,7 @@ static const char *vector_name(const struct pk_avrchip_board *b, unsigned v)
     if (v == b->step_vector)
         return "step_timer";
     if (strcmp(b->mcu, "atmega328p") == 0)
-        return v == 13 ? "step_overflow" : v == 18 ? "uart_rx" : v == 19 ? "uart_tx" : v == 7 ? "servo" : "other";
+        return v == 13 ? "step_overflow" : v == 18 ? "uart_rx" : v == 19 ? "uart_tx" : v == 7 || v == 9 ? "servo" : "other";
     return v == 35 ? "step_overflow" : v == 25 ? "uart_rx" : v == 26 ? "uart_tx" : v == 20 ? "servo" : "other";
 }
 
@@ -622,9 +622,12 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
     fprintf(o, "  \"first_step_s\": %.6f,\n", s->steps_total ? secs(s, s->first_step) - r->t_start_s : 0.0);
     fprintf(o, "  \"pen_changes\": %u,\n", s->pen_changes);
     double us = s->b->f_cpu / 1e6;
-    fprintf(o, "  \"servo\": {\"pulses\": %u, \"period_ms\": [%.3f, %.3f], \"width_us\": [%.1f, %.1f]},\n",
+    fprintf(o, "  \"servo\": {\"pulses\": %u, \"period_ms\": [%.3f, %.3f], \"width_us\": [%.1f, %.1f], \"widths_us\": [",
             c->servo_pulses, c->servo_period_min / us / 1000.0, c->servo_period_max / us / 1000.0,
             c->servo_width_min / us, c->servo_width_max / us);
+    for (unsigned i = 0; i < c->n_servo_widths; i++)
+        fprintf(o, "%s%.1f", i ? ", " : "", c->servo_widths[i] / us);
+    fprintf(o, "]},\n");
     fprintf(o, "  \"cycles\": %" PRIu64 ",\n  \"timer_starts\": %" PRIu64 ",\n", pk_avrchip_cycles(c),
             c->timer_starts);
     fprintf(o, "  \"stack_bytes\": %u,\n  \"ram_bytes\": %u,\n", pk_avrchip_stack_bytes(c),

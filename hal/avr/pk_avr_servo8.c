@@ -16,11 +16,12 @@
  *   phase 0: the compare match just ended the pulse: disconnect (the pin is
  *           then its PORT bit, low).
  *
- * A new width is written in phase 0, right after the pulse ended, and takes
- * effect at the next pulse: the hardware double-buffers the register anyway,
- * but simavr applies a write at once, and a write while the output is
- * connected would make it draw a pulse the chip never makes. Width
- * resolution: 16 us (62 steps over 1.0-2.0 ms).
+ * A new width is written by the overflow interrupt at the start of phase 1
+ * (enabled for that one write from phase 0), with the output disconnected,
+ * and takes effect at the next pulse: the hardware double-buffers the
+ * register anyway, but simavr applies a write at once and would match the
+ * new value again in the period it was written in. Width resolution: 16 us
+ * (62 steps over 1.0-2.0 ms).
  */
 #include "pk_avr.h"
 
@@ -59,6 +60,12 @@ int pk_avr_servo_write(void *ctx, uint16_t value_q16)
     return PK_HAL_OK;
 }
 
+ISR(PK_BOARD_SERVO8_OVF_vect)
+{
+    PK_BOARD_SERVO8_OCR = (uint8_t)pk_avr_board.servo_ocr;
+    PK_BOARD_SERVO8_TIMSK = (uint8_t)_BV(PK_BOARD_SERVO8_OCIE);
+}
+
 ISR(PK_BOARD_SERVO8_COMP_vect)
 {
     uint8_t p = (uint8_t)(pk_avr_board.servo_phase + 1u);
@@ -69,6 +76,7 @@ ISR(PK_BOARD_SERVO8_COMP_vect)
         PK_BOARD_SERVO8_TCCRA = (uint8_t)(PK_BOARD_SERVO8_WGM | PK_BOARD_SERVO8_COM);
     else if (p == 0u) {
         PK_BOARD_SERVO8_TCCRA = PK_BOARD_SERVO8_WGM;
-        PK_BOARD_SERVO8_OCR = (uint8_t)pk_avr_board.servo_ocr;
+        if (PK_BOARD_SERVO8_OCR != (uint8_t)pk_avr_board.servo_ocr)
+            PK_BOARD_SERVO8_TIMSK = (uint8_t)(_BV(PK_BOARD_SERVO8_OCIE) | _BV(PK_BOARD_SERVO8_TOIE));
     }
 }

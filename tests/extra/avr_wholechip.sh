@@ -13,7 +13,7 @@ if ! command -v avr-gcc >/dev/null || ! pkg-config --exists simavr 2>/dev/null; 
 fi
 boards=$(ls -d hal/avr/*/board.mk 2>/dev/null | xargs -n1 dirname | xargs -n1 basename)
 targets="firmware-images $BUILD/plotkin"
-for b in $boards; do targets="$targets $BUILD/firmware/$b/host/plotkin"; done
+for b in $boards; do targets="$targets $BUILD/firmware/$b/host/plotkin $BUILD/firmware/$b/hal_selftest.hex"; done
 if ! out=$(${MAKE:-make} --no-print-directory -s BUILD="$BUILD" $targets 2>&1); then
   printf '%s\n' "$out" | tail -n 20
   echo "FAIL avr_wholechip: building the images failed"; echo "0 passed, 1 failed"; exit 1

@@ -84,7 +84,9 @@
 #define PK_BOARD_SERVO8_OCR OCR2A
 #define PK_BOARD_SERVO8_TIMSK TIMSK2
 #define PK_BOARD_SERVO8_OCIE OCIE2A
+#define PK_BOARD_SERVO8_TOIE TOIE2
 #define PK_BOARD_SERVO8_COMP_vect TIMER2_COMPA_vect
+#define PK_BOARD_SERVO8_OVF_vect TIMER2_OVF_vect
 
 /* ---- pins ------------------------------------------------------------------ */
 /** Outputs and inputs (pull-ups) to their initial state: step, dir low,
