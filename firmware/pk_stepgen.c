@@ -312,8 +312,9 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_ch
         c->first = 1;
         c->dir_mask = b->dir_mask;
         c->spindle = b->spindle;
-        memcpy(c->steps, b->steps, sizeof c->steps);
-        c->events = N;
+        memcpy(c->inc, b->inc, sizeof c->inc);
+        memcpy(c->acc0, b->acc0, sizeof c->acc0);
+        c->period = b->period;
     }
     sg->v2 = prof_v2(&p, sb);
     c->v_um_s = v_q2(sg->v2) / 4u;
@@ -322,13 +323,15 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_ch
     return true;
 }
 
-bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
+bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
 {
     bool added = false;
     for (;;) {
         if (sg->held)
             return added;
         struct pk_block *b = pk_mq_at(q, 0);
+        if (b != NULL && max_blocks == 0)
+            return added; /* waiting for a final plan */
         if (b == NULL) {
             if (sg->hold)
                 sg->held = true; /* nothing left: the queue already ends at rest */
@@ -350,6 +353,7 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
             c->wait_ticks = (uint64_t)b->wait_ms * sg->tick_hz / 1000u;
             ring_commit(sg);
             pk_mq_pop(q);
+            max_blocks--;
             sg->v2 = 0;
             sg->lag_q16 = 0;
             added = true;
@@ -362,11 +366,40 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
         added = true;
         if (sg->e >= b->events) {
             pk_mq_pop(q);
+            max_blocks--;
             sg->prep_active = false;
             sg->e = 0;
             sg->s_q8 = 0;
         }
     }
+}
+
+int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    uint32_t tok = pk_hal_irq_save(hal);
+    int pulse = sg->busy && sg->phase == PK_SGP_PULSE && sg->alarm == 0;
+    if (pulse) {
+        /* empty the ring and end the chunk under way: after the pulse the
+         * callback stops (kill), so nothing more is emitted */
+        sg->kill = 1;
+        sg->left = 0;
+        sg->tail = sg->head;
+    }
+    pk_hal_irq_restore(hal, tok);
+    if (pulse) {
+        sg->prep_active = false;
+        sg->hold = false;
+        sg->held = false;
+        sg->e = 0;
+        sg->s_q8 = 0;
+        sg->v2 = 0;
+        sg->lag_q16 = 0;
+        return 1;
+    }
+    if (hal->ops->timer_stop)
+        (void)hal->ops->timer_stop(hal->ctx);
+    pk_sg_flush(sg);
+    return 0;
 }
 
 void pk_sg_flush(struct pk_stepgen *sg)
@@ -384,6 +417,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->left = 0;
     sg->mask_due = 0;
     sg->busy = false;
+    sg->kill = 0;
     sg->alarm = 0;
     sg->v_um_s = 0u;
 }
@@ -411,9 +445,9 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
     if (sg->phase == PK_SGP_STEP_DUE) {
         uint32_t mask = 0;
         for (unsigned i = 0; i < sg->axes; i++) {
-            sg->acc[i] += (int32_t)sg->steps[i];
-            if (sg->acc[i] > 0) {
-                sg->acc[i] -= (int32_t)sg->events;
+            sg->acc[i] += (int32_t)sg->inc[i];
+            if (sg->acc[i] >= 0) {
+                sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
         }
@@ -429,6 +463,14 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         if (pk_hal_step_write(hal, all, 0u) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
         sg->phase = PK_SGP_GAP;
+        if (sg->kill) {
+            /* a reset came while this pulse was high: it has had its full
+             * width, the line is low, stop here */
+            sg->kill = 0;
+            sg->v_um_s = 0u;
+            sg->busy = false;
+            return 0;
+        }
     }
     uint64_t earliest = now;
     if (sg->left == 0) {
@@ -465,10 +507,10 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->spindle_cur = c->spindle;
             }
             for (unsigned i = 0; i < sg->axes; i++) {
-                sg->steps[i] = c->steps[i];
-                sg->acc[i] = -(int32_t)(c->events >> 1);
+                sg->inc[i] = c->inc[i];
+                sg->acc[i] = c->acc0[i];
             }
-            sg->events = c->events;
+            sg->period = c->period;
             if (c->dir_mask != sg->dir_cur) {
                 if (pk_hal_dir_write(hal, all, c->dir_mask) != 0)
                     return isr_alarm(sg, PK_ALARM_DIR_WRITE);

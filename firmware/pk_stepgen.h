@@ -57,8 +57,9 @@ struct pk_sg_chunk {
     uint16_t spindle;          /**< STEPS first / SPINDLE: spindle value (Q0.16) */
     uint32_t n;                /**< STEPS: events in the chunk (>= 1) */
     int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
-    uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
-    uint32_t events;           /**< STEPS first: events of the block */
+    uint32_t inc[PK_AXES];     /**< STEPS first: Bresenham increments (pk_mq.h) */
+    int32_t acc0[PK_AXES];     /**< STEPS first: Bresenham start values */
+    uint32_t period;           /**< STEPS first: Bresenham period */
     uint64_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
     pk_um_s_t v_um_s;          /**< speed at the chunk's end (reports) */
 };
@@ -96,10 +97,13 @@ struct pk_stepgen {
     int64_t I, A, B;           /**< recurrence state, ticks Q16 */
     uint64_t next_q16;         /**< absolute tick (Q16) of the last scheduled event */
     uint64_t earliest;         /**< no step edge before this tick (dir set-up) */
-    uint32_t steps[PK_AXES];
-    uint32_t events;
-    int32_t acc[PK_AXES];      /**< Bresenham accumulators */
+    uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
+    uint32_t period;
+    int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
+                                    event when its accumulator reaches 0 */
     volatile uint8_t busy;     /**< 1 from timer_start until the ISR returns 0 */
+    volatile uint8_t kill;     /**< reset came during a pulse: the ISR ends it on
+                                    time, then stops (finding M2) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
     uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
@@ -113,11 +117,12 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
                 uint32_t dir_setup_ticks);
 
 /**
- * Prepare chunks from the tail of q while the ring has room. Pops a block
- * from q once all its chunks are in the ring. MAIN.
+ * Prepare chunks from the tail of q while the ring has room, from at most the
+ * first max_blocks blocks (those whose plan is final, see pk_planner.h). Pops
+ * a block from q once all its chunks are in the ring. MAIN.
  * @return true if at least one chunk was added
  */
-bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q);
+bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks);
 
 /** Speed^2 and remaining length of the tail block as the planner must see
  *  them (entry fixed at the prepared state). MAIN. */
@@ -136,5 +141,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
 /** Drop everything queued and the timer-side state, keep the position. Call
  *  only with the timer stopped. MAIN. */
 void pk_sg_flush(struct pk_stepgen *sg);
+
+/** Reset while the timer may still run: if a step pulse is high, leave the
+ *  timer armed so that the callback lowers it after the full pulse width and
+ *  then stops (returns 1); otherwise stop the timer and flush (returns 0).
+ *  Either way nothing queued runs any more and the position is kept. MAIN,
+ *  with interrupts enabled (it masks them itself through the HAL). */
+int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal);
 
 #endif
