@@ -75,6 +75,10 @@ static void setup_modules(struct pk_machine *m)
         lim.accel[i] = cfg->accel[i];
     }
     lim.junction_dev_um = cfg->junction_dev_um;
+    lim.accel_min = cfg->accel[0];
+    for (uint32_t i = 1; i < axes_of(m); i++)
+        if (cfg->accel[i] < lim.accel_min)
+            lim.accel_min = cfg->accel[i];
     pk_planner_init(&m->planner, &lim);
     pk_mq_init(&m->mq);
     pk_stroke_init(&m->stroke, &cfg->smooth, m->cfg.axes);
@@ -481,6 +485,8 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     }
     if (mx == 0) {
         memcpy(m->target_um, p, sizeof m->target_um);
+        if (done && m->line_sharp)
+            m->junction_sharp = true;  /* the corner moved to where the next block starts */
         return done;
     }
     int64_t d_q8[PK_AXES] = { 0 };
@@ -490,7 +496,10 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     int32_t d_um[PK_AXES] = { 0 };
     for (uint32_t i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
-    int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, feed);
+    uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
+    if (m->sg.prep_active && pk_mq_count(&m->mq) == 1u)
+        flags |= PK_PLAN_PREV_LOCKED;   /* the only queued block is being cut */
+    int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, feed, flags);
     if (r < 0)
         return -1;
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
@@ -516,6 +525,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     }
     m->lines_planned++;
     m->replan = true;
+    m->junction_sharp = done ? m->line_sharp : false; /* between pieces: straight on */
     memcpy(m->target_um, p, sizeof m->target_um);
     memcpy(m->target_steps, st, sizeof m->target_steps);
     return done;
@@ -535,10 +545,13 @@ static bool flush_line(struct pk_machine *m)
     return true;
 }
 
-static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_min_t feed)
+/* Plan a straight move to p; sharp: p is a corner (the junction after it is
+ * a programmed corner, not a vertex of a smoothed curve). */
+static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_min_t feed, bool sharp)
 {
     memcpy(m->line_p, p, sizeof m->line_p);
     m->line_feed = feed;
+    m->line_sharp = sharp;
     m->line_pending = true;
     return flush_line(m);
 }
@@ -551,7 +564,7 @@ static bool drain_stroke(struct pk_machine *m)
         pk_um_t p[PK_AXES];
         int r = pk_stroke_pull(&m->stroke, p);
         if (r == PK_OK) {
-            (void)plan_line(m, p, m->stroke_feed);
+            (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
             continue;
         }
         if (r < 0) {
@@ -616,7 +629,7 @@ static void take_requests(struct pk_machine *m)
             return;
         switch (r->type) {
         case PK_REQ_MOVE:
-            (void)plan_line(m, r->p, 0u);
+            (void)plan_line(m, r->p, 0u, true);
             break;
         case PK_REQ_PEN:
             (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, 0u, r->arg);

@@ -180,6 +180,8 @@ struct pk_machine {
     bool line_pending;                   /**< a straight move is being planned in pieces */
     pk_um_t line_p[PK_AXES];             /**< its end (MAIN) */
     pk_um_min_t line_feed;
+    bool line_sharp;                     /**< its end is a corner */
+    bool junction_sharp;                 /**< the junction at target_um is a programmed corner */
     bool replan;                         /**< the plan must be recomputed (MAIN) */
     bool flush;                          /**< nothing follows what is queued (end of
                                               program, or the look-ahead waited

@@ -38,7 +38,8 @@ struct pk_block {
     uint16_t spindle;          /**< LINE: spindle value while it runs; SPINDLE: the value */
     uint8_t end_limited;       /**< LINE: planner-private: the exit is limited by the
                                     queue's end (may rise when blocks are appended) */
-    uint8_t pad_;
+    uint8_t curved;            /**< LINE: next to a curved junction (acceleration along
+                                    the path shared with the turn) */
     uint32_t events;           /**< LINE: Bresenham events M = max |steps| (>= 1) */
     uint32_t period;           /**< LINE: Bresenham period, 256 * M */
     uint32_t inc[PK_AXES];     /**< LINE: per event each axis's accumulator grows by

@@ -46,8 +46,15 @@
  *     v^2 <= accel[i] * (l1 + l2) / 2 / |u2[i] - u1[i]|     for every axis i,
  *
  * which is v^2 <= a / kappa on a polygon that follows a curve (kappa = the
- * turn over the chord), per axis, centripetal acceleration included. The
- * smaller of the two limits applies.
+ * turn over the chord). The sideways budget is isotropic, a share of the
+ * smallest axis acceleration (PK_PLANNER_CURVE_SHARE_Q15, 1/sqrt(2)), and the
+ * blocks on either side of a junction where it can bind accelerate along the
+ * path with the same share only: per axis a_t u_i + a_n n_i, u and n
+ * orthogonal, stays within sqrt(a_t^2 + a_n^2) <= accel_min. Grbl's junction
+ * deviation applies at programmed corners (it is Grbl's model: a velocity
+ * jump of at most sqrt(8 a delta)); at vertices of a smoothed curve the jump
+ * itself is capped at what PK_PLANNER_JUMP_MS of sideways acceleration
+ * would give, so coarse chords cannot turn a curve into a string of kicks.
  *
  * Final plans. Appending a block can only raise exits that are limited by
  * the newest block's stop; an exit capped by a junction, a nominal speed or
@@ -136,31 +143,43 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
 }
 
 pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
-                                   uint32_t l1_q8, uint32_t l2_q8,
-                                   const struct pk_planner_limits *lim)
+                                   uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a)
 {
     /* v^2 (Q4) = a * (l1 + l2)/2 / |du|: with l in µm Q8 and du in Q30,
      * v^2 = a * lsum_q8 / 512 * 2^30 / du  ->  Q4: a * lsum_q8 * 2^25 / du. */
-    pk_v2_q4_t best = UINT64_MAX;
-    uint64_t lsum = (uint64_t)l1_q8 + l2_q8;
-    for (unsigned i = 0; i < lim->axes; i++) {
-        int64_t du = (int64_t)u2[i] - u1[i];
-        if (du < 0)
-            du = -du;
-        if (du == 0)
-            continue;
-        uint64_t num = (uint64_t)lim->accel[i] * lsum;   /* < 2^27 * 2^32 = 2^59 */
-        uint64_t qt = num / (uint64_t)du;
-        pk_v2_q4_t v2 = qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
-        if (v2 < best)
-            best = v2;
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];   /* |d| <= 2^31 */
+        ss += (uint64_t)(d * d) >> 4;         /* Q56, < 3 * 2^58 */
     }
-    return best;
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2; /* |u2 - u1|, Q30 */
+    if (du == 0)
+        return UINT64_MAX;
+    uint64_t num = (uint64_t)a * ((uint64_t)l1_q8 + l2_q8); /* < 2^27 * 2^32 */
+    uint64_t qt = num / du;
+    return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
+}
+
+/* The jump cap (Q4): v |u2 - u1| <= a * PK_PLANNER_JUMP_MS. */
+static pk_v2_q4_t jump_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes,
+                          pk_um_s2_t a)
+{
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];
+        ss += (uint64_t)(d * d) >> 4;
+    }
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;   /* Q30 */
+    if (du == 0)
+        return UINT64_MAX;
+    /* v = a * T / du: a * T in µm/s (T = JUMP_MS / 1000 s); Q30 / du */
+    uint64_t v_q2 = (((uint64_t)a * PK_PLANNER_JUMP_MS) << 30) / 250u / du; /* µm/s x 4 */
+    return v_q2 * v_q2;                            /* (µm/s)^2 x 16 = Q4 */
 }
 
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
-                        pk_um_min_t feed)
+                        pk_um_min_t feed, uint8_t flags)
 {
     const uint8_t axes = p->lim.axes;
     uint64_t ss = 0;
@@ -224,9 +243,35 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
     b->v2_nom = pk_planner_nominal_v2(p, b);
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
-        pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
-        vj = pk_planner_junction_v2(p->prev_u, u, axes, a, p->lim.junction_dev_um);
-        vj = min64(vj, pk_planner_curvature_v2(p->prev_u, u, p->prev_len_q8, ulen_q8, &p->lim));
+        const pk_um_s2_t side = (pk_um_s2_t)(((uint64_t)p->lim.accel_min
+                                              * PK_PLANNER_CURVE_SHARE_Q15) >> 15);
+        pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
+        pk_v2_q4_t turn; /* the cap that comes from turning sideways */
+        if (flags & PK_PLAN_SHARP) {
+            pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
+            pk_v2_q4_t grbl = pk_planner_junction_v2(p->prev_u, u, axes, a, p->lim.junction_dev_um);
+            vj = min64(grbl, curv);
+            turn = curv < grbl ? curv : UINT64_MAX; /* Grbl's corner model rules */
+        } else {
+            vj = min64(curv, jump_v2(p->prev_u, u, axes, side));
+            turn = vj;
+        }
+        /* a turn that can limit the speed shares the acceleration with the
+         * blocks on either side of it */
+        struct pk_block *a0 = pk_mq_count(q) >= 2 ? pk_mq_at(q, pk_mq_count(q) - 2u) : NULL;
+        pk_v2_q4_t nom = b->v2_nom;
+        if (a0 != NULL && a0->type == PK_BLK_LINE && a0->v2_nom > nom)
+            nom = a0->v2_nom;
+        if (turn < nom) {
+            b->curved = 1;
+            if (b->accel > side)
+                b->accel = side;
+            if (a0 != NULL && a0->type == PK_BLK_LINE && !(flags & PK_PLAN_PREV_LOCKED)) {
+                a0->curved = 1;
+                if (a0->accel > side)
+                    a0->accel = side;
+            }
+        }
     }
     b->v2_junction = vj;
     b->v2_exit = 0;
@@ -298,6 +343,11 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         } else {
             next_entry = entry;
         }
+        /* the newest block's own acceleration is not settled until the next
+         * junction is known (a curve after it takes its share): what
+         * it allows is not final either */
+        if (k == n - 1u && !end_known)
+            limited = true;
     }
     /* Forward pass: from the current speed, acceleration caps each exit. */
     pk_v2_q4_t entry = v2_now;
@@ -316,10 +366,12 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
         pk_v2_q4_t reach = entry + two_a_s(b->accel, len);
         pk_v2_q4_t ex = min64(b->v2_exit, min64(reach, b->v2_nom));
-        bool capped = ex < b->v2_exit;
         b->v2_exit = ex;
         entry = ex;
-        if (prefix && (capped || !b->end_limited))
+        /* (an exit capped here by the acceleration from the past is not final
+         * if it is end-limited: the newest block's acceleration can still drop
+         * when a curve follows it, lowering the reverse limit below this cap) */
+        if (prefix && !b->end_limited)
             fin++;
         else
             prefix = false;

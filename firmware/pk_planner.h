@@ -28,6 +28,7 @@
 /** Limits the planner needs (copied from struct pk_motion_cfg at init). */
 struct pk_planner_limits {
     uint8_t axes;
+    pk_um_s2_t accel_min;          /**< smallest of accel[] (the curve budget is isotropic) */
     pk_um_min_t max_rate[PK_AXES]; /**< µm/min per axis */
     pk_um_s2_t accel[PK_AXES];     /**< µm/s^2 per axis */
     pk_um_t junction_dev_um;       /**< Grbl $11 */
@@ -38,7 +39,7 @@ struct pk_planner {
     uint16_t ovr_feed_pct, ovr_rapid_pct; /**< overrides (100 = none) */
     bool have_prev;               /**< the newest queued block is a LINE to join */
     pk_q30_t prev_u[PK_AXES];     /**< its unit vector */
-    uint32_t prev_len_q8;         /**< its length */
+    uint32_t prev_len_q8;         /**< its requested length */
     pk_um_s2_t prev_accel;
     uint8_t n_final;              /**< blocks from the tail with a final plan (last replan) */
 };
@@ -48,6 +49,16 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim);
 
 /** Forget the previous move: the next line starts from a stop. */
 void pk_planner_break(struct pk_planner *p);
+
+/** Share of the acceleration a curve may use sideways (centripetal), and the
+ *  share left along the path on blocks next to a curved junction, Q1.15:
+ *  both 1/sqrt(2), so that the two together never exceed accel_min on any
+ *  axis (|a_t u_i + a_n n_i| <= sqrt(a_t^2 + a_n^2), u and n orthogonal). */
+#define PK_PLANNER_CURVE_SHARE_Q15 23170u
+/** The largest velocity jump a smooth junction may take at once, as the time
+ *  it would take at the sideways acceleration: 5 ms (so that over any 20 ms
+ *  the jumps add at most a quarter of it). */
+#define PK_PLANNER_JUMP_MS 5u
 
 /** Largest |steps| of one line block (longer moves are split by the caller):
  *  keeps the step generator's Bresenham terms (256 x steps) within 2^30. */
@@ -67,6 +78,7 @@ void pk_planner_break(struct pk_planner *p);
  * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
  *                 allow, scaled by the rapid override; else the feed override
  *                 applies)
+ * @param flags    PK_PLAN_* bits
  * @retval 1  a block was appended (the newest in q; the caller fills in its
  *            Bresenham terms, pk_mq.h)
  * @retval 0  the move has no steps (nothing appended)
@@ -75,7 +87,15 @@ void pk_planner_break(struct pk_planner *p);
  */
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
-                        pk_um_min_t feed);
+                        pk_um_min_t feed, uint8_t flags);
+/** pk_planner_add_line flags. */
+enum {
+    PK_PLAN_SHARP = 1,      /**< the junction with the previous move is a programmed
+                                 corner (Grbl's junction deviation applies); else it is
+                                 a vertex of a smoothed curve (velocity jump capped) */
+    PK_PLAN_PREV_LOCKED = 2 /**< the previous block is being cut into chunks: its
+                                 acceleration can no longer be changed */
+};
 
 /** Append a stop block (PK_BLK_PEN with tool level, PK_BLK_SPINDLE with value
  *  in `value`, or PK_BLK_DWELL) of wait_ms.
@@ -115,12 +135,11 @@ pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_blo
 pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta);
 
-/** The curvature limit (Q4): the largest v^2 such that changing direction
- *  from u1 to u2 between the midpoints of two moves of lengths l1, l2 (µm Q8)
- *  needs at most accel[i] on every axis i: v^2 <= accel[i] (l1 + l2)/2 /
- *  |u2[i] - u1[i]|. UINT64_MAX if no axis changes speed. Exposed for tests. */
+/** The curvature limit (Q4): the largest v^2 such that turning from u1 to u2
+ *  between the midpoints of two moves of lengths l1, l2 (µm Q8) needs at most
+ *  the acceleration a sideways: v^2 <= a (l1 + l2)/2 / |u2 - u1|. UINT64_MAX
+ *  for no turn. Exposed for tests. */
 pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
-                                   uint32_t l1_q8, uint32_t l2_q8,
-                                   const struct pk_planner_limits *lim);
+                                   uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a);
 
 #endif

@@ -348,6 +348,7 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     st->have_pend = false;
     st->have_out = false;
     st->emit_n = 0;
+    st->have_hold = false;
     st->n_in = 1;
     st->nq = 0;
     st->q_head = 0;
@@ -437,10 +438,23 @@ void pk_stroke_finish(struct pk_stroke *st)
     /* TOLERANCE: the last leg is queued once the queue has drained (pull) */
 }
 
-static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+static void emit_f(struct pk_stroke *st, const pk_um_t p[PK_AXES], bool sharp)
 {
     memcpy(st->emit[st->emit_n], p, sizeof st->emit[0]);
+    st->emit_sharp[st->emit_n] = sharp;
     st->emit_n++;
+}
+
+static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { emit_f(st, p, false); }
+
+/* FIXED: a kernel point goes out one pull late, so that the last one of a
+ * kernel stroke (a split vertex or the stroke's end) is known to be a corner. */
+static void emit_held(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+{
+    if (st->have_hold)
+        emit(st, st->hold);
+    memcpy(st->hold, p, sizeof st->hold);
+    st->have_hold = true;
 }
 
 /* ------------------------------------------------------------ decimator */
@@ -557,6 +571,7 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->nq = 0;
     st->nv = 0;
     st->have_cand = false;
+    st->have_hold = false;
 }
 
 static int pull_off(struct pk_stroke *st, pk_um_t out[PK_AXES])
@@ -564,6 +579,7 @@ static int pull_off(struct pk_stroke *st, pk_um_t out[PK_AXES])
     if (st->have_out) {
         st->have_out = false;
         memcpy(out, st->out, sizeof st->out);
+        st->out_sharp = true;
         return PK_OK;
     }
     if (st->finishing) {
@@ -618,7 +634,9 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
     for (;;) {
         if (st->emit_n > 0) {
             memcpy(out, st->emit[0], sizeof st->emit[0]);
+            st->out_sharp = st->emit_sharp[0];
             memmove(st->emit[0], st->emit[1], sizeof st->emit[0]);
+            st->emit_sharp[0] = st->emit_sharp[1];
             st->emit_n--;
             return PK_OK;
         }
@@ -636,7 +654,7 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
             if (st->mode == PK_SMOOTH_TOLERANCE)
                 decimate(st, o.p);
             else
-                emit(st, o.p);
+                emit_held(st, o.p);
             continue;
         }
         if (r == PK_NEED_INPUT) {
@@ -652,8 +670,12 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
         if (r == PK_END) {
             observe(st, PK_STROKE_EV_END, st->mode == PK_SMOOTH_TOLERANCE ? st->v[0] : st->prev2);
             if (st->mode == PK_SMOOTH_TOLERANCE && st->have_cand) {
-                emit(st, st->cand);
+                emit_f(st, st->cand, true); /* the stroke's end */
                 st->have_cand = false;
+            }
+            if (st->have_hold) {
+                emit_f(st, st->hold, true); /* a split vertex or the end */
+                st->have_hold = false;
             }
             if (st->split_pending) {
                 /* FIXED: the stroke ended at the sharp vertex (prev2 holds it) */

@@ -98,6 +98,14 @@ struct pk_stroke {
     int32_t cone_r[2], cone_l[2]; /**< right/left boundary directions, Q1.30 */
     uint8_t emit_n;            /**< points ready to return (0..2) */
     pk_um_t emit[2][PK_AXES];
+    uint8_t emit_sharp[2];     /**< ... and whether each is a corner */
+    bool have_hold;            /**< FIXED: the last kernel point, held back one pull
+                                    to learn whether the kernel stroke ends there */
+    pk_um_t hold[PK_AXES];
+    bool out_sharp;            /**< the point pk_stroke_pull returned last is a corner
+                                    of the executed path (a vertex kept sharp, a
+                                    stroke's end, every vertex in OFF mode): the
+                                    junction there is a programmed corner */
 
     pk_stroke_observer observe; /**< NULL, or called for every control point */
     void *observe_ctx;

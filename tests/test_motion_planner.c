@@ -75,7 +75,8 @@ static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES]
     if (xr() % 17 == 0)
         (void)pk_planner_add_stop(p, q, PK_BLK_DWELL, 0, 0, 0);
     else
-        (void)pk_planner_add_line(p, q, dq, st, d, (pk_um_min_t)(60u * (1000u + xr() % 120000u)));
+        (void)pk_planner_add_line(p, q, dq, st, d, (pk_um_min_t)(60u * (1000u + xr() % 120000u)),
+                                  (uint8_t)(xr() % 2u ? PK_PLAN_SHARP : 0u));
 }
 
 /* Every planned block: exit <= nominal, exit <= next entry ceiling (junction),
@@ -93,6 +94,7 @@ static void test_replanned_speeds_respect_every_constraint_on_random_polylines(v
     lim.accel[0] = 1000000;
     lim.accel[1] = 500000;
     lim.junction_dev_um = 20;
+    lim.accel_min = 500000;
     unsigned bad = 0, blocks = 0, stops_ok = 0;
     for (int run = 0; run < 200; run++) {
         pk_mq_init(&q);
@@ -147,6 +149,7 @@ static void test_a_final_plan_never_changes_when_blocks_are_appended(void)
     lim.max_rate[0] = lim.max_rate[1] = 6000000;
     lim.accel[0] = lim.accel[1] = 1000000;
     lim.junction_dev_um = 10;
+    lim.accel_min = 1000000;
     unsigned checked = 0, bad = 0, some_final = 0, all_when_known = 0;
     for (int run = 0; run < 400; run++) {
         pk_mq_init(&q);
@@ -197,7 +200,7 @@ static void test_the_curvature_limit_is_a_times_the_radius(void)
         u2[0] = -u1[0];
         u2[1] = u1[1];
         uint32_t l = (uint32_t)lround(2 * R * sin(th / 2) * 256);
-        double v2 = (double)pk_planner_curvature_v2(u1, u2, l, l, &lim) / 16.0;
+        double v2 = (double)pk_planner_curvature_v2(u1, u2, 2, l, l, lim.accel[0]) / 16.0;
         double expect = 1000000.0 * (2 * R * sin(th / 2)) / (2 * sin(th / 2));  /* a * R */
         TH_EXPECT(fabs(v2 / expect - 1.0) < 0.01);
     }
