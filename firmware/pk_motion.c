@@ -82,6 +82,9 @@ static void setup_modules(struct pk_machine *m)
     pk_planner_init(&m->planner, &lim);
     pk_mq_init(&m->mq);
     pk_stroke_init(&m->stroke, &cfg->smooth, m->cfg.axes);
+    struct pk_planner_dyn dyn;
+    pk_planner_dyn(&lim, &dyn);
+    pk_stroke_set_dyn(&m->stroke, &dyn);
     m->stroke.observe = m->observe;
     m->stroke.observe_ctx = m->observe_ctx;
     pk_sg_init(&m->sg, m->cfg.axes, hal->tick_hz, cfg->step_pulse_ticks, cfg->dir_setup_ticks);

@@ -47,14 +47,15 @@
  *
  * which is v^2 <= a / kappa on a polygon that follows a curve (kappa = the
  * turn over the chord). The sideways budget is isotropic, a share of the
- * smallest axis acceleration (PK_PLANNER_CURVE_SHARE_Q15, 1/sqrt(2)), and the
- * blocks on either side of a junction where it can bind accelerate along the
- * path with the same share only: per axis a_t u_i + a_n n_i, u and n
- * orthogonal, stays within sqrt(a_t^2 + a_n^2) <= accel_min. Grbl's junction
+ * smallest axis acceleration (PK_PLANNER_SIDE_Q15), and the blocks on either
+ * side of a junction where it can bind accelerate along the path with the
+ * complementary share (PK_PLANNER_ALONG_Q15) only: per axis a_t u_i + a_n
+ * n_i, u and n orthogonal, stays within sqrt(a_t^2 + a_n^2) <= accel_min. Grbl's junction
  * deviation applies at programmed corners (it is Grbl's model: a velocity
  * jump of at most sqrt(8 a delta)); at vertices of a smoothed curve the jump
- * itself is capped at what PK_PLANNER_JUMP_MS of sideways acceleration
- * would give, so coarse chords cannot turn a curve into a string of kicks.
+ * itself is capped (PK_PLANNER_KINK_MS) so that, over any such window, it
+ * leaves room for the acceleration along the path: long chords cannot turn a
+ * curve into a string of kicks the curvature formula would allow.
  *
  * Final plans. Appending a block can only raise exits that are limited by
  * the newest block's stop; an exit capped by a junction, a nominal speed or
@@ -155,25 +156,37 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
     uint64_t du = (uint64_t)pk_isqrt64(ss) << 2; /* |u2 - u1|, Q30 */
     if (du == 0)
         return UINT64_MAX;
-    uint64_t num = (uint64_t)a * ((uint64_t)l1_q8 + l2_q8); /* < 2^27 * 2^32 */
+    /* the kink is spread over the shorter neighbour (twice its half): with
+     * equal chords this is their mean, the turn over the chord of a curve;
+     * next to a long segment the short one rules, so a long straight and a
+     * blend's chord cannot hide a large kink behind the long one */
+    uint64_t lmin = l1_q8 < l2_q8 ? l1_q8 : l2_q8;
+    uint64_t num = (uint64_t)a * (2u * lmin);               /* < 2^27 * 2^32 */
     uint64_t qt = num / du;
     return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
 }
 
-/* The jump cap (Q4): v |u2 - u1| <= a * PK_PLANNER_JUMP_MS. */
-static pk_v2_q4_t jump_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes,
-                          pk_um_s2_t a)
+void pk_planner_dyn(const struct pk_planner_limits *lim, struct pk_planner_dyn *d)
+{
+    d->a_min = lim->accel_min;
+    d->a_side = (pk_um_s2_t)(((uint64_t)lim->accel_min * PK_PLANNER_SIDE_Q15) >> 15);
+    pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)lim->accel_min * PK_PLANNER_ALONG_Q15) >> 15);
+    d->jump_um_s = (uint32_t)(((uint64_t)(lim->accel_min - along) * PK_PLANNER_KINK_MS) / 1000u);
+    d->delta_um = lim->junction_dev_um;
+}
+
+pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                              uint8_t axes, uint32_t jump_um_s)
 {
     uint64_t ss = 0;
     for (unsigned i = 0; i < axes; i++) {
         int64_t d = (int64_t)u2[i] - u1[i];
         ss += (uint64_t)(d * d) >> 4;
     }
-    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;   /* Q30 */
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;   /* |u2 - u1|, Q30 */
     if (du == 0)
         return UINT64_MAX;
-    /* v = a * T / du: a * T in µm/s (T = JUMP_MS / 1000 s); Q30 / du */
-    uint64_t v_q2 = (((uint64_t)a * PK_PLANNER_JUMP_MS) << 30) / 250u / du; /* µm/s x 4 */
+    uint64_t v_q2 = ((uint64_t)jump_um_s << 32) / du; /* jump / du, µm/s x 4 */
     return v_q2 * v_q2;                            /* (µm/s)^2 x 16 = Q4 */
 }
 
@@ -204,19 +217,15 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
     b->len_q8 = len_q8;
     uint64_t v_lim = PK_UM_MIN_MAX;
     uint64_t acc = PK_UM_S2_MAX;
-    /* the requested direction and length, for the junction and curvature */
+    /* the direction and length of the steps, for the junction and curvature */
+    (void)d_um;
     pk_q30_t u[PK_AXES] = { 0 };
-    uint64_t us = 0;
-    for (unsigned i = 0; i < axes; i++)
-        us += (uint64_t)((int64_t)d_um[i] * d_um[i]);
-    uint32_t ulen_q8 = pk_isqrt64(us << 16);                 /* us < 3 * 2^46 */
-    for (unsigned i = 0; i < axes && ulen_q8 > 0; i++) {
-        int64_t du = d_um[i];
+    uint32_t ulen_q8 = len_q8;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t du = d_q8[i];
         uint64_t adu = (uint64_t)(du < 0 ? -du : du);
-        u[i] = (pk_q30_t)((du < 0 ? -1 : 1) * (int64_t)((adu << 38) / ulen_q8)); /* < 2^61 */
+        u[i] = (pk_q30_t)((du < 0 ? -1 : 1) * (int64_t)((adu << 30) / ulen_q8)); /* < 2^61 */
     }
-    if (ulen_q8 == 0)
-        ulen_q8 = len_q8;
     for (unsigned i = 0; i < axes; i++) {
         int64_t d = d_q8[i];
         if (d_steps[i] > 0)
@@ -243,8 +252,10 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
     b->v2_nom = pk_planner_nominal_v2(p, b);
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
-        const pk_um_s2_t side = (pk_um_s2_t)(((uint64_t)p->lim.accel_min
-                                              * PK_PLANNER_CURVE_SHARE_Q15) >> 15);
+        struct pk_planner_dyn dyn;
+        pk_planner_dyn(&p->lim, &dyn);
+        const pk_um_s2_t side = dyn.a_side;
+        const pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)p->lim.accel_min * PK_PLANNER_ALONG_Q15) >> 15);
         pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {
@@ -253,7 +264,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
             vj = min64(grbl, curv);
             turn = curv < grbl ? curv : UINT64_MAX; /* Grbl's corner model rules */
         } else {
-            vj = min64(curv, jump_v2(p->prev_u, u, axes, side));
+            vj = min64(curv, pk_planner_kink_v2(p->prev_u, u, axes, dyn.jump_um_s));
             turn = vj;
         }
         /* a turn that can limit the speed shares the acceleration with the
@@ -263,13 +274,22 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
         if (a0 != NULL && a0->type == PK_BLK_LINE && a0->v2_nom > nom)
             nom = a0->v2_nom;
         if (turn < nom) {
-            b->curved = 1;
-            if (b->accel > side)
-                b->accel = side;
-            if (a0 != NULL && a0->type == PK_BLK_LINE && !(flags & PK_PLAN_PREV_LOCKED)) {
+            /* the turn is spread over the shorter neighbour: that block shares
+             * its acceleration with it (on the longer one the two come one
+             * after the other, so any window of time averages them) */
+            bool b_short = ulen_q8 <= p->prev_len_q8;
+            if (b_short) {
+                b->curved = 1;
+                if (b->accel > along)
+                    b->accel = along;
+            } else if (a0 != NULL && a0->type == PK_BLK_LINE && !(flags & PK_PLAN_PREV_LOCKED)) {
                 a0->curved = 1;
-                if (a0->accel > side)
-                    a0->accel = side;
+                if (a0->accel > along)
+                    a0->accel = along;
+            } else {
+                b->curved = 1; /* the shorter one is running already: this one shares */
+                if (b->accel > along)
+                    b->accel = along;
             }
         }
     }

@@ -50,15 +50,28 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim);
 /** Forget the previous move: the next line starts from a stop. */
 void pk_planner_break(struct pk_planner *p);
 
-/** Share of the acceleration a curve may use sideways (centripetal), and the
- *  share left along the path on blocks next to a curved junction, Q1.15:
- *  both 1/sqrt(2), so that the two together never exceed accel_min on any
- *  axis (|a_t u_i + a_n n_i| <= sqrt(a_t^2 + a_n^2), u and n orthogonal). */
-#define PK_PLANNER_CURVE_SHARE_Q15 23170u
-/** The largest velocity jump a smooth junction may take at once, as the time
- *  it would take at the sideways acceleration: 5 ms (so that over any 20 ms
- *  the jumps add at most a quarter of it). */
-#define PK_PLANNER_JUMP_MS 5u
+/** Shares of the acceleration, Q1.15: a curve may use SIDE of the smallest
+ *  axis acceleration sideways (centripetal), and the blocks next to a curved
+ *  junction ALONG of it along the path; SIDE^2 + ALONG^2 <= 1, so that the two
+ *  together never exceed it on any axis (|a_t u_i + a_n n_i| <=
+ *  sqrt(a_t^2 + a_n^2), u and n orthogonal). */
+#ifndef PK_PLANNER_SIDE_Q15
+#define PK_PLANNER_SIDE_Q15 23170u   /* 1/sqrt(2) */
+#endif
+#ifndef PK_PLANNER_ALONG_Q15
+#define PK_PLANNER_ALONG_Q15 23170u  /* 1/sqrt(2) */
+#endif
+#if (PK_PLANNER_SIDE_Q15 * PK_PLANNER_SIDE_Q15 + PK_PLANNER_ALONG_Q15 * PK_PLANNER_ALONG_Q15) > (1u << 30)
+#error "PK_PLANNER_SIDE_Q15^2 + PK_PLANNER_ALONG_Q15^2 must not exceed 1"
+#endif
+/** A vertex of a smoothed curve is a velocity jump v |u2 - u1|; measured
+ *  over any window of PK_PLANNER_KINK_MS it must leave room for the
+ *  acceleration along the path: the jump is capped at (1 - ALONG) *
+ *  accel_min * PK_PLANNER_KINK_MS (about Grbl's sqrt(8 a delta) at delta =
+ *  0.01 mm). The trace checks measure accelerations over such windows. */
+#ifndef PK_PLANNER_KINK_MS
+#define PK_PLANNER_KINK_MS 40u
+#endif
 
 /** Largest |steps| of one line block (longer moves are split by the caller):
  *  keeps the step generator's Bresenham terms (256 x steps) within 2^30. */
@@ -126,6 +139,21 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
 /** Blocks from the tail whose plan is final (as of the last replan). */
 uint32_t pk_planner_final(const struct pk_planner *p);
 
+/** The kink cap (Q4): v^2 such that the velocity jump v |u2 - u1| is at most
+ *  jump_um_s. UINT64_MAX for no turn. */
+pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                              uint8_t axes, uint32_t jump_um_s);
+
+/** The shares and caps the planner applies at a junction, for a policy that
+ *  wants to compare a kink with a blend (pk_stroke.c). */
+struct pk_planner_dyn {
+    pk_um_s2_t a_min;      /**< smallest axis acceleration */
+    pk_um_s2_t a_side;     /**< the sideways share of it (curvature) */
+    uint32_t jump_um_s;    /**< the kink cap at vertices of smoothed curves */
+    pk_um_t delta_um;      /**< Grbl's junction deviation at programmed corners */
+};
+void pk_planner_dyn(const struct pk_planner_limits *lim, struct pk_planner_dyn *d);
+
 /** Nominal speed^2 of a line block under the overrides in force. */
 pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b);
 
@@ -136,8 +164,9 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta);
 
 /** The curvature limit (Q4): the largest v^2 such that turning from u1 to u2
- *  between the midpoints of two moves of lengths l1, l2 (µm Q8) needs at most
- *  the acceleration a sideways: v^2 <= a (l1 + l2)/2 / |u2 - u1|. UINT64_MAX
+ *  over the shorter of two moves of lengths l1, l2 (µm Q8) needs at most the
+ *  acceleration a sideways: v^2 <= a min(l1, l2) / |u2 - u1| (a polygon with
+ *  chords l on a curve of radius r turns by l / r: v^2 <= a r). UINT64_MAX
  *  for no turn. Exposed for tests. */
 pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                    uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a);

@@ -42,7 +42,10 @@
  *     blends stays exactly straight.
  *
  * A vertex turning by more than sharp_turn_deg (or a reversal), a vertex with
- * no budget, and both ends of the stroke are given twice: a doubled control
+ * no budget, a corner whose exact kink the planner would take faster than
+ * the blend (Grbl's junction deviation at a wide corner with long legs: the
+ * smoothing is then never slower than G61), and both ends of the stroke are
+ * given twice: a doubled control
  * point is passed through exactly, with a corner (the planner slows for it
  * as for any junction). Only the vertices V(j-1), V(j), V(j+1), V(j+2) decide
  * the points of leg j: two vertices of look-ahead, and nothing depends on when
@@ -155,6 +158,8 @@ static void apply(struct pk_stroke *st, const struct pk_smooth_cfg *s)
     st->cos_sharp = cos_deg_q30(s->sharp_turn_deg ? s->sharp_turn_deg : 60u);
 }
 
+void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d) { st->dyn = *d; }
+
 void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t axes)
 {
     memset(st, 0, sizeof *st);
@@ -193,6 +198,41 @@ static void diff(const pk_um_t a[PK_AXES], const pk_um_t b[PK_AXES], int64_t d[P
 {
     for (unsigned i = 0; i < PK_AXES; i++)
         d[i] = (int64_t)b[i] - a[i];
+}
+
+/* Is the kink at a corner (the exact path: Grbl's junction deviation and the
+ * curvature over its legs, as the planner will take it) slower than a blend of
+ * half-length up to cap? The blend's radius at its apex is h cos^2(phi/2) /
+ * sin(phi/2) (a symmetric parabola of half-length h, h = cap or half the
+ * shorter leg), driven at the planner's sideways acceleration. A heuristic
+ * choice only: either way the path is within the tolerance and the planner
+ * keeps the limits. */
+static bool kink_slower(const struct pk_stroke *st, const int64_t u1[PK_AXES],
+                        const int64_t u2[PK_AXES], uint32_t l1_q8, uint32_t l2_q8, uint32_t cap,
+                        int64_t cos_q30, uint64_t sin_q30)
+{
+    pk_q30_t a[PK_AXES] = { 0 }, b[PK_AXES] = { 0 };
+    for (unsigned i = 0; i < st->axes; i++) {
+        a[i] = (pk_q30_t)u1[i];
+        b[i] = (pk_q30_t)u2[i];
+    }
+    pk_v2_q4_t kink = pk_planner_junction_v2(a, b, st->axes, st->dyn.a_min, st->dyn.delta_um);
+    pk_v2_q4_t kc = pk_planner_curvature_v2(a, b, st->axes, l1_q8, l2_q8, st->dyn.a_side);
+    if (kc < kink)
+        kink = kc;
+    uint64_t h_q8 = (uint64_t)cap << 8, lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;
+    if (h_q8 > lmin)
+        h_q8 = lmin;
+    /* cos^2(phi/2) = (1 + cos)/2, sin(phi/2) = sqrt((1 - cos)/2), Q30 */
+    uint64_t c2 = (uint64_t)(PK_Q30_ONE + cos_q30) / 2u;
+    uint64_t sh = pk_isqrt64(((uint64_t)(PK_Q30_ONE - cos_q30) / 2u) << 30);
+    (void)sin_q30;
+    if (sh == 0)
+        return true;
+    uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10);         /* µm Q8 */
+    /* v^2 (Q4) = a * r: a (µm/s^2) * r_q8 / 256 * 16 */
+    pk_v2_q4_t blend = ((uint64_t)st->dyn.a_side * r_q8) >> 4;
+    return kink < blend;
 }
 
 /** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
@@ -237,7 +277,11 @@ static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
     if (sin_q30 == 0)
         return dot > 0 ? CAP_INF : 0;
     uint64_t cap = (((uint64_t)4 * (uint64_t)e) << 30) / sin_q30; /* 4E < 2^16 */
-    return cap > CAP_INF ? CAP_INF : (uint32_t)cap;
+    if (cap > CAP_INF)
+        cap = CAP_INF;
+    if (st->dyn.a_side > 0 && !kink_slower(st, u1, u2, l1, l2, (uint32_t)cap, dot, sin_q30))
+        return 0; /* the programmed corner is as fast: keep it exact */
+    return (uint32_t)cap;
 }
 
 /* ------------------------------------------------------------ kernel feed */
@@ -298,6 +342,15 @@ static void advance(struct pk_stroke *st)
     st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
     queue_leg(st);
     queue_vertex(st, st->cap[1] == 0);
+    if (st->cap[1] == 0) {
+        /* a corner kept sharp: the refined path passes through it exactly;
+         * the decimator ends a chord there and flags it (pk_stroke_pull) */
+        if (st->ncorner == 3u) {
+            memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
+            st->ncorner = 2;  /* (the oldest is dropped: treated as smooth, slower) */
+        }
+        memcpy(st->corner[st->ncorner++], st->v[1], sizeof st->corner[0]);
+    }
     memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
     memmove(&st->err_in[0], &st->err_in[1], 2 * sizeof st->err_in[0]);
     st->cap[0] = st->cap[1];
@@ -348,24 +401,24 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     st->have_pend = false;
     st->have_out = false;
     st->emit_n = 0;
-    st->have_hold = false;
     st->n_in = 1;
     st->nq = 0;
     st->q_head = 0;
+    st->ncorner = 0;
     memcpy(st->prev, start, sizeof st->prev);
     memcpy(st->prev2, start, sizeof st->prev2);
     if (st->mode == PK_SMOOTH_OFF)
         return 0;
     kernel_start(st, start);
+    st->have_anchor = true;
+    memcpy(st->anchor, start, sizeof st->anchor);
+    st->have_cand = false;
     if (st->mode == PK_SMOOTH_TOLERANCE) {
         queue_pt(st, start);           /* the start is doubled: passed exactly */
         memcpy(st->v[0], start, sizeof st->v[0]);
         st->err_in[0] = 0;
         st->cap[0] = 0;
         st->nv = 1;
-        st->have_anchor = true;
-        memcpy(st->anchor, start, sizeof st->anchor);
-        st->have_cand = false;
     }
     return 0;
 }
@@ -447,16 +500,6 @@ static void emit_f(struct pk_stroke *st, const pk_um_t p[PK_AXES], bool sharp)
 
 static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { emit_f(st, p, false); }
 
-/* FIXED: a kernel point goes out one pull late, so that the last one of a
- * kernel stroke (a split vertex or the stroke's end) is known to be a corner. */
-static void emit_held(struct pk_stroke *st, const pk_um_t p[PK_AXES])
-{
-    if (st->have_hold)
-        emit(st, st->hold);
-    memcpy(st->hold, p, sizeof st->hold);
-    st->have_hold = true;
-}
-
 /* ------------------------------------------------------------ decimator */
 
 static int64_t cross2(const int32_t a[2], int64_t bx, int64_t by) { return a[0] * by - a[1] * bx; }
@@ -476,10 +519,12 @@ static void tangents(const int64_t d[2], uint32_t r_q8, uint32_t tol_q8, int32_t
     lt[1] = (int32_t)((uy * cb + ux * sb) >> 30);
 }
 
-/* tol for the decimator: T/4 in µm Q8, a hair inside (rounding of the cone). */
+/* tol for the decimator: T/4 (FIXED: PK_STROKE_FIXED_DEC_UM) in µm Q8, a
+ * hair inside (rounding of the cone). */
 static uint32_t dec_tol_q8(const struct pk_stroke *st)
 {
-    uint32_t t = ((uint32_t)(st->tol_um / 4) << 8);
+    pk_um_t tol = st->mode == PK_SMOOTH_TOLERANCE ? st->tol_um / 4 : PK_STROKE_FIXED_DEC_UM;
+    uint32_t t = (uint32_t)tol << 8;
     return t > 1u ? t - 1u : 0u;
 }
 
@@ -504,7 +549,25 @@ static void new_anchor_at_cand(struct pk_stroke *st)
     st->have_cand = false;
 }
 
+static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES]);
+
 static void decimate(struct pk_stroke *st, const pk_um_t q[PK_AXES])
+{
+    decimate_pt(st, q);
+    if (st->ncorner > 0 && memcmp(q, st->corner[0], sizeof st->corner[0]) == 0) {
+        /* the corner: the chord ends here, and the planner treats the
+         * junction as a programmed corner */
+        if (st->have_cand && memcmp(st->cand, q, sizeof st->cand) == 0) {
+            emit_f(st, st->cand, true);
+            memcpy(st->anchor, st->cand, sizeof st->anchor);
+            st->have_cand = false;
+        }
+        memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
+        st->ncorner--;
+    }
+}
+
+static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
     const pk_um_t *last = st->have_cand ? st->cand : st->anchor;
     if (memcmp(q, last, sizeof st->cand) == 0)
@@ -570,8 +633,8 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->emit_n = 0;
     st->nq = 0;
     st->nv = 0;
+    st->ncorner = 0;
     st->have_cand = false;
-    st->have_hold = false;
 }
 
 static int pull_off(struct pk_stroke *st, pk_um_t out[PK_AXES])
@@ -651,10 +714,7 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
         struct pk_refine_out o;
         int r = pk_refine_pull(&st->k, &o);
         if (r == PK_OK) {
-            if (st->mode == PK_SMOOTH_TOLERANCE)
-                decimate(st, o.p);
-            else
-                emit_held(st, o.p);
+            decimate(st, o.p);
             continue;
         }
         if (r == PK_NEED_INPUT) {
@@ -669,13 +729,10 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
         }
         if (r == PK_END) {
             observe(st, PK_STROKE_EV_END, st->mode == PK_SMOOTH_TOLERANCE ? st->v[0] : st->prev2);
-            if (st->mode == PK_SMOOTH_TOLERANCE && st->have_cand) {
-                emit_f(st, st->cand, true); /* the stroke's end */
+            if (st->have_cand) {
+                emit_f(st, st->cand, true); /* the stroke's end, or a split vertex */
+                memcpy(st->anchor, st->cand, sizeof st->anchor);
                 st->have_cand = false;
-            }
-            if (st->have_hold) {
-                emit_f(st, st->hold, true); /* a split vertex or the end */
-                st->have_hold = false;
             }
             if (st->split_pending) {
                 /* FIXED: the stroke ended at the sharp vertex (prev2 holds it) */

@@ -11,8 +11,9 @@
  *   OFF        vertices pass through unchanged (exact path, G61).
  *   FIXED      the refinement kernel with the configured scheme, degree and
  *              depth over the vertices; corners turning by more than
- *              sharp_turn_deg split the stroke (kept sharp). No promise about
- *              the distance to the programmed path.
+ *              sharp_turn_deg split the stroke (kept sharp); refined points
+ *              within PK_STROKE_FIXED_DEC_UM of a chord are merged. No
+ *              promise about the distance to the programmed path.
  *   TOLERANCE  G64 P<T>: the executed path stays within T of the programmed
  *              polyline (plus the kernel's rounding, 2 µm, inside T) and, at
  *              chord vertices of flattened curves, within T of the curve. A
@@ -33,6 +34,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include "pk_refine.h"
+#include "pk_planner.h"
 
 /** Refinement depth of the tolerance mode (smoothness of the blends only: any
  *  depth keeps the tolerance; 3 puts the polygon within E/64 of its curve). */
@@ -42,6 +44,11 @@
 #if PK_STROKE_TOL_DEPTH < 1 || PK_STROKE_TOL_DEPTH > PK_MAX_DEPTH
 #error "PK_STROKE_TOL_DEPTH must be 1..PK_MAX_DEPTH"
 #endif
+
+/** FIXED mode: refined points within this many µm of a chord through their
+ *  neighbours are merged into it (nearly collinear points make blocks of a
+ *  few steps, whose step-rounded directions would only slow the machine). */
+#define PK_STROKE_FIXED_DEC_UM 2
 
 /** Rounding allowance inside the tolerance, µm: control points and kernel
  *  outputs are whole micrometres (each within sqrt(3)/2 µm of exact). */
@@ -89,8 +96,10 @@ struct pk_stroke {
     uint32_t cap[3];           /**< blend half-length capacity at v[i], µm (see pk_stroke.c) */
     uint8_t nq, q_head;        /**< control points queued for the kernel */
     pk_um_t q[4][PK_AXES];
+    uint8_t ncorner;           /**< vertices kept sharp, not yet out of the kernel */
+    pk_um_t corner[3][PK_AXES];
 
-    /* ---- TOLERANCE: cone decimator (XY; a change of Z ends a chord) ---- */
+    /* ---- cone decimator (XY; a change of Z ends a chord) ---- */
     bool have_anchor, have_cand, cone_full, cone_empty;
     pk_um_t anchor[PK_AXES];
     pk_um_t cand[PK_AXES];     /**< the chord's current far end */
@@ -99,14 +108,14 @@ struct pk_stroke {
     uint8_t emit_n;            /**< points ready to return (0..2) */
     pk_um_t emit[2][PK_AXES];
     uint8_t emit_sharp[2];     /**< ... and whether each is a corner */
-    bool have_hold;            /**< FIXED: the last kernel point, held back one pull
-                                    to learn whether the kernel stroke ends there */
-    pk_um_t hold[PK_AXES];
     bool out_sharp;            /**< the point pk_stroke_pull returned last is a corner
                                     of the executed path (a vertex kept sharp, a
                                     stroke's end, every vertex in OFF mode): the
                                     junction there is a programmed corner */
 
+    struct pk_planner_dyn dyn; /**< TOLERANCE: the planner's junction model, to keep
+                                    a corner sharp where its kink is faster than
+                                    its blend (never slower than G61) */
     pk_stroke_observer observe; /**< NULL, or called for every control point */
     void *observe_ctx;
 };
@@ -116,6 +125,11 @@ struct pk_stroke {
  * pk_stroke_check) for `axes` axes (2..PK_AXES). No stroke open.
  */
 void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t axes);
+
+/** The planner's junction model (pk_planner_dyn), so that the tolerance mode
+ *  blends a corner only where the blend is faster than the kink the exact
+ *  path would take there. Zeroed by init (then every corner is blended). */
+void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d);
 
 /** Validate a smoothing policy (and that this build's kernel can run it).
  *  @return 0 if valid, -1 if a value is out of range, -2 if the scheme is

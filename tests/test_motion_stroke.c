@@ -679,6 +679,7 @@ static void test_path_speed_on_arcs_and_smoothed_strokes_never_exceeds_the_feed(
         double w = worst_path_speed_ratio(&R, 50.0, 12.5, 10000); /* F3000 = 50 mm/s, 10 ms */
         TH_EXPECT(w <= 1.0);
         TH_EXPECT(w > 0.85); /* and it does run at the feed */
+        if (!(w > 0.85)) { th_print("  mode "); th_print_i64(mi); th_print_i64((int64_t)(w * 1000)); th_print("\n"); }
     }
 }
 
