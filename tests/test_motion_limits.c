@@ -231,7 +231,7 @@ static void run_one(const struct run_cfg *rc, struct result *res)
         long pos[2] = { 0, 0 };
         size_t k[2] = { 0, 0 };
         long start[2] = { lround(P[0].x * sp[0] / 1000.0), lround(P[0].y * sp[1] / 1000.0) };
-        int on_path = 0;
+        int on_path = start[0] == 0 && start[1] == 0; /* no rapid needed */
         size_t jseg = 0;
         double worst = -1e300;
         while (k[0] < ne[0] || k[1] < ne[1]) {
