@@ -10,8 +10,8 @@ For every board image (linked with relaxed memory regions, so that an image
 that does not fit is still measured) it reads from the ELF and its linker map:
   flash = .text (+ .rodata, .ARM.exidx) + .data (what the bootloader writes),
   RAM   = .data + .bss + the stack measured at its deepest while the image
-          runs the workload on an emulated chip (`plotkin avrsim`, simavr;
-          only for images that fit their part's flash),
+          runs the workload and the bundled example on an emulated chip
+          (`plotkin avrsim`, simavr; only for images that fit their part),
 and writes the Intel HEX next to the ELF when the image fits its flash and its
 static RAM. It prints the table beside Grbl 1.1h's figures (same compiler),
 then per image the flash and RAM of every module (from the map), the largest
@@ -27,6 +27,7 @@ import os
 import re
 import subprocess
 import sys
+import tempfile
 
 GRBL = ('Grbl 1.1h', 29864, 1633)
 
@@ -130,19 +131,29 @@ def func_module(mapsecs):
     return res
 
 
-def measure_stack(plotkin, hexf, board, workload):
-    """Run the image on the emulated chip; the deepest stack, or an error text."""
-    try:
-        p = subprocess.run([plotkin, 'avrsim', hexf, '--board', board, '--run', workload, '--json',
-                            '--timeout', '120', '--at', '0.02:status', '--at', '0.3:status',
-                            '--at', '0.6:hold', '--at', '0.7:status', '--at', '0.8:resume'],
-                           capture_output=True, text=True, timeout=600)
-        d = json.loads(p.stdout)
-    except (OSError, ValueError, subprocess.TimeoutExpired) as e:
-        return None, 'plotkin avrsim failed: %s' % e
-    if d.get('status') != 'finished':
-        return None, 'the workload did not finish on the chip (%s, chip %s)' % (d.get('status'), d.get('chip'))
-    return d['stack_bytes'], None
+def measure_stack(plotkin, hexf, board, workload, tmpdir):
+    """Run the image on the emulated chip: the workload (every kind of line,
+    realtime reports, a hold) and the bundled example (the deepest smoothing,
+    at 10 steps/mm to keep it short; the geometry and so the kernel's work are
+    the same). The deepest stack of the two, or an error text."""
+    conf = os.path.join(tmpdir, 'stack.conf')
+    with open(conf, 'w') as f:
+        f.write('$100=10\n$101=10\n$102=10\n' + ('$202=2\n' if board.startswith('uno') else ''))
+    runs = [[workload, '--at', '0.02:status', '--at', '0.3:status', '--at', '0.6:hold', '--at', '0.7:status',
+             '--at', '0.8:resume'],
+            ['host-sim/examples/flower.gcode', '--config', conf]]
+    deepest = 0
+    for r in runs:
+        try:
+            p = subprocess.run([plotkin, 'avrsim', hexf, '--board', board, '--json', '--timeout', '300', '--run'] + r,
+                               capture_output=True, text=True, timeout=900)
+            d = json.loads(p.stdout)
+        except (OSError, ValueError, subprocess.TimeoutExpired) as e:
+            return None, 'plotkin avrsim failed on %s: %s' % (r[0], e)
+        if d.get('status') != 'finished':
+            return None, 'the %s did not finish on the chip (%s, chip %s)' % (r[0], d.get('status'), d.get('chip'))
+        deepest = max(deepest, d['stack_bytes'])
+    return deepest, None
 
 
 def fmt(n):
@@ -193,7 +204,8 @@ def main(argv):
                  '-R', '.signature', elf, hexf])
             if b['arch'] == 'avr' and not hex_only:
                 if plotkin and workload:
-                    stack, why = measure_stack(plotkin, hexf, b['name'], workload)
+                    with tempfile.TemporaryDirectory() as td:
+                        stack, why = measure_stack(plotkin, hexf, b['name'], workload, td)
                 else:
                     why = 'no plotkin avrsim given'
         verdict = []
