@@ -78,7 +78,14 @@ def main():
     # soft reset in motion
     g.write(b'G1 X10 Y10 F1200\n')
     g.answer()
-    g.wait_state({'Run'}, 20)
+    # in motion: the state says Run and the position has left the start (the
+    # chip plans for a few ms before the first step)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        st = g.status()
+        if st.startswith('<Run|') and not near(mpos(st), (40.0, 25.0, 0.0)):
+            break
+        time.sleep(0.01)
     g.write(b'\x18')
     _, before = g.wait_for(lambda l: l.startswith('Grbl 1.1h'), 20)
     st1 = g.status()
