@@ -394,6 +394,175 @@ static void test_the_block_pull_gives_the_same_points_as_the_point_pull(void)
             }
 }
 
+
+/* ---- the limit stage ------------------------------------------------------ */
+
+/* Exact limit points of Chaikin and the closed cubic from the exact level-K
+ * polygon (the masks written out: pk_masks.h), rounded; tangent directions. */
+struct xlim {
+    unsigned n;
+    xm_t num[MAXOUT][3], tan[MAXOUT][3];
+    unsigned den_shift; /* position = num / (2^frac * 2^den_shift) or /6 for the cubic */
+    int six;
+};
+static struct xlim XL;
+
+static void exact_limit(const struct variant *v, unsigned dims)
+{
+    unsigned N = XP[0].n;
+    XL.n = 0;
+    XL.six = v->degree == 3u;
+    for (unsigned a = 0; a < dims; a++) {
+        const xm_t *L = XP[a].v;
+        unsigned k = 0;
+        if (v->degree == 3u) { /* closed: (1,4,1)/6 at every vertex, tangent L(i+1) - L(i-1) */
+            for (unsigned i = 0; i < N; i++, k++) {
+                XL.num[k][a] = L[(i + N - 1) % N] + 4 * L[i] + L[(i + 1) % N];
+                XL.tan[k][a] = L[(i + 1) % N] - L[(i + N - 1) % N];
+            }
+        } else if (v->closed) { /* every edge, from L0 L1 */
+            for (unsigned e = 0; e < N; e++, k++) {
+                XL.num[k][a] = L[e] + L[(e + 1) % N];
+                XL.tan[k][a] = L[(e + 1) % N] - L[e];
+            }
+        } else if (N <= 2u) { /* the points, tangent along the stroke */
+            for (unsigned e = 0; e < N; e++, k++) {
+                XL.num[k][a] = 2 * L[e];
+                XL.tan[k][a] = N == 2u ? L[1] - L[0] : 0;
+            }
+        } else { /* edges; with end rules the first and last are the end points */
+            for (unsigned e = 0; e + 1u < N; e++, k++) {
+                int ends = v->ends != PK_ENDS_NONE;
+                XL.num[k][a] = ends && e == 0u ? 2 * L[0] : ends && e + 2u == N ? 2 * L[N - 1] : L[e] + L[e + 1];
+                XL.tan[k][a] = L[e + 1] - L[e];
+            }
+        }
+        XL.n = k;
+    }
+}
+
+/* round(x / q), ties away from zero */
+static int64_t div_round_away(xm_t x, xm_t q)
+{
+    return x >= 0 ? (int64_t)((x + q / 2) / q) : -(int64_t)((-x + q / 2) / q);
+}
+
+static int limit_matches(unsigned dims, unsigned frac, unsigned n, unsigned rot)
+{
+    xm_t q = (XL.six ? 6 : 2) * ((xm_t)1 << frac);
+    for (unsigned i = 0; i < n; i++) {
+        unsigned j = (i + rot) % n;
+        for (unsigned a = 0; a < dims; a++)
+            if (OUT[i].p[a] != div_round_away(XL.num[j][a], q))
+                return 0;
+        /* the unit tangent is parallel to the exact vector within Q30 rounding:
+         * |t x d| <= 2^-28 |d| |t|, t . d > 0 (a zero vector gives zero) */
+        long double nd = 0, nt = 0, dot = 0, cr = 0;
+        for (unsigned a = 0; a < dims; a++) {
+            long double d = (long double)XL.tan[j][a], t = OUT[i].t[a];
+            nd += d * d;
+            nt += t * t;
+            dot += d * t;
+        }
+        for (unsigned a = 0; a < dims; a++)
+            for (unsigned b2 = a + 1u; b2 < dims; b2++) {
+                long double c = (long double)OUT[i].t[a] * (long double)XL.tan[j][b2] -
+                                (long double)OUT[i].t[b2] * (long double)XL.tan[j][a];
+                cr += c * c;
+            }
+        if (nd == 0) {
+            if (nt != 0)
+                return 0;
+            continue;
+        }
+        if (!(dot > 0 && cr <= nd * nt * ldexpl(1.0L, -56)))
+            return 0;
+    }
+    return 1;
+}
+
+/* Limit points are the exact ones rounded once, and tangents the exact
+ * directions, even on dense input where the old kernel's were 1.4 degrees
+ * off; counts as the old kernel's, positions its bits where it was exact. */
+static void test_limit_points_are_exact_and_tangents_parallel_to_the_exact_ones(void)
+{
+    static const struct variant lv[] = {
+        { PK_SCHEME_BSPLINE, 2, 0, PK_ENDS_CLAMPED }, { PK_SCHEME_BSPLINE, 2, 0, PK_ENDS_NONE },
+        { PK_SCHEME_BSPLINE, 2, 0, PK_ENDS_REPLACE }, { PK_SCHEME_BSPLINE, 2, 1, PK_ENDS_NONE },
+        { PK_SCHEME_BSPLINE, 3, 1, PK_ENDS_NONE },
+    };
+    unsigned cases = 0, same_old = 0;
+    int bad = 0;
+    rng_seed(77);
+    for (unsigned k = 0; k < TH_COUNT(lv) && !bad; k++)
+        for (unsigned depth = 0; depth <= PK_MAX_DEPTH && !bad; depth++)
+            for (unsigned trial = 0; trial < 8u && !bad; trial++) {
+                unsigned dims = 2u + trial % 2u, style = trial % 4u;
+                unsigned m = trial < 3u ? trial + 1u : (unsigned)rng_range(3, depth >= 6u ? 10 : 24);
+                random_input(m, dims, style == 3u ? 2u : style);
+                struct pk_refine_cfg c = cfg_of(&lv[k], depth, dims, 2);
+                unsigned n = 0, rn = 0;
+                TH_ASSERT_EQ(run_new(&c, m, &n), PK_OK);
+                (void)exact_level_k(&lv[k], depth, m, dims);
+                exact_limit(&lv[k], dims);
+                if (n != XL.n) {
+                    print_case("limit count", &lv[k], depth, dims, m, n);
+                    bad = 1;
+                    break;
+                }
+                unsigned rot = 0, rots = lv[k].closed && n ? n : 1u;
+                while (rot < rots && !limit_matches(dims, XP[0].frac, n, rot))
+                    rot++;
+                if (n && rot == rots) {
+                    print_case("limit point or tangent not exact", &lv[k], depth, dims, m, 0);
+                    bad = 1;
+                    break;
+                }
+                TH_ASSERT_EQ(run_ref(&c, m, &rn), REF_OK);
+                TH_ASSERT_EQ(rn, n);
+                int exact_old = old_exact(&lv[k], depth);
+                for (unsigned i = 0; i < n; i++)
+                    for (unsigned a = 0; a < dims; a++) {
+                        int32_t d = OUT[i].p[a] - ROUT[i].p[a];
+                        if (exact_old ? d != 0 : (d < -1 || d > 1)) {
+                            print_case("limit differs from the old kernel", &lv[k], depth, dims, m, i);
+                            bad = 1;
+                        }
+                    }
+                same_old += exact_old;
+                cases++;
+            }
+    TH_ASSERT(!bad);
+    TH_ASSERT(cases > 300u);
+    TH_ASSERT(same_old > 80u);
+}
+
+/* The dense closed cubic 40-gon of tests/tools/tangent_accuracy.py (2 µm and
+ * 20 µm edges, depth 5), where the old kernel's tangents were 1.4 and 0.16
+ * degrees off: now parallel to the exact tangent to Q30 rounding (above). */
+static void test_dense_input_keeps_its_tangents(void)
+{
+    static const struct variant cub = { PK_SCHEME_BSPLINE, 3, 1, PK_ENDS_NONE };
+    for (unsigned sp = 2; sp <= 20u; sp += 18u) {
+        double R = sp * 40 / (2 * 3.14159265358979323846);
+        for (unsigned i = 0; i < 40u; i++) {
+            IN[i][0] = (int32_t)lround(R * cos(2 * 3.14159265358979323846 * i / 40));
+            IN[i][1] = (int32_t)lround(R * sin(2 * 3.14159265358979323846 * i / 40));
+            IN[i][2] = 0;
+        }
+        struct pk_refine_cfg c = cfg_of(&cub, 5, 2, 2);
+        unsigned n = 0;
+        TH_ASSERT_EQ(run_new(&c, 40, &n), PK_OK);
+        (void)exact_level_k(&cub, 5, 40, 2);
+        exact_limit(&cub, 2);
+        TH_ASSERT_EQ(n, XL.n);
+        unsigned rot = 0;
+        while (rot < n && !limit_matches(2, XP[0].frac, n, rot))
+            rot++;
+        TH_ASSERT(rot < n);
+    }
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -401,6 +570,8 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_every_output_is_the_exactly_rounded_rational),
         TH_CASE(test_the_block_pull_gives_the_same_points_as_the_point_pull),
+        TH_CASE(test_limit_points_are_exact_and_tangents_parallel_to_the_exact_ones),
+        TH_CASE(test_dense_input_keeps_its_tangents),
     };
     return th_run(cases, TH_COUNT(cases));
 }
