@@ -43,6 +43,7 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 sys.path.insert(0, HERE)
 import gcode_scan  # noqa: E402
 
@@ -282,11 +283,15 @@ def is_clean(r):
 
 
 def source_lines(path, wanted):
+    """Text of the lines plotkin names, numbered as plotkin numbers them:
+    CR LF, a lone CR and a lone LF each end one line (bytes.splitlines). A
+    file ending its lines in CR CR LF (one in this corpus) therefore counts
+    two lines per line, in plotkin's error numbers and here alike."""
     out = {}
     if not wanted:
         return out
     with open(path, "rb") as f:
-        for n, raw in enumerate(f, 1):
+        for n, raw in enumerate(f.read().splitlines(), 1):
             if n in wanted:
                 out[n] = raw.decode("latin-1").strip()
     return out
@@ -370,6 +375,8 @@ def report(results, args, skipped, wall):
             cs += " ALARM:%s" % r["alarm"]
         if r["timing_violations"]:
             cs += " viol:%d" % r["timing_violations"]
+        if r["status"] != "finished":
+            cs += " STATUS:%s" % r["status"].replace(" ", "_")
         src = source_lines(res["path"], {e["line"] for e in r["error_lines"]})
         seen = []
         per_file = set()
@@ -423,6 +430,24 @@ def report(results, args, skipped, wall):
     return n_clean, len(rows), fails
 
 
+def report_saved(args, by_name):
+    with open(args.report_json) as f:
+        saved = json.load(f)
+    args.modes = saved["modes"]
+    args.origin = saved["origin"]
+    args.plotkin = saved.get("plotkin", "(saved run)")
+    results = []
+    for x in saved["results"]:
+        if x["file"] not in by_name:
+            raise Fatal("%s: %s is not in the manifest" % (args.report_json, x["file"]))
+        results.append({"row": by_name[x["file"]], "path": os.path.join(FILES, x["file"]),
+                        "shift": tuple(x["origin_shift_mm"]) if x["origin_shift_mm"] else None,
+                        "modes": x["modes"]})
+    skipped = [by_name[n] for n in saved.get("skipped", [])]
+    _, _, fails = report(results, args, skipped, saved.get("wall_s", 0.0))
+    return 2 if fails else 0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--plotkin", default=os.path.join(REPO, "build", "plotkin"))
@@ -437,6 +462,8 @@ def main():
     ap.add_argument("--require-external", action="store_true")
     ap.add_argument("--require-clean", action="store_true")
     ap.add_argument("--json", dest="json_out", help="write the raw results here")
+    ap.add_argument("--report-json", metavar="FILE",
+                    help="print the table of a run saved with --json, without running plotkin")
     ap.add_argument("--write-manifest", action="store_true",
                     help="recompute the manifest's computed columns from the files, then stop")
     args = ap.parse_args()
@@ -464,6 +491,9 @@ def main():
         write_manifest(rows)
         print("wrote %s (%d files)" % (MANIFEST, len(rows)))
         return 0
+
+    if args.report_json:
+        return report_saved(args, {r["file"]: r for r in rows})
 
     if not (os.path.isfile(args.plotkin) and os.access(args.plotkin, os.X_OK)):
         raise Fatal("%s is not an executable (build it with `make`)" % args.plotkin)
@@ -524,7 +554,8 @@ def main():
                         "modes": {m: {k: v for k, v in r.items() if k != "_stderr"}
                                   for m, r in res["modes"].items()}})
         with open(args.json_out, "w") as f:
-            json.dump({"modes": args.modes, "origin": args.origin, "results": out,
+            json.dump({"modes": args.modes, "origin": args.origin, "plotkin": args.plotkin,
+                   "wall_s": wall, "results": out,
                        "skipped": [s["file"] for s in skipped]}, f, indent=1)
     if fails:
         print("FAILED: %d runs gave no result" % len(fails), file=sys.stderr)
