@@ -628,7 +628,7 @@ static uint32_t emit_scalar(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
 
 #if defined(__GNUC__) && (defined(__SSE2__) || defined(__ARM_NEON)) && !defined(PK_NO_SIMD) && \
     PK_SPAN_DMAX >= 2
-#include <string.h>
+#define memcpy __builtin_memcpy /* GNU C here anyway; no libc header in firmware/ */
 
 
 typedef uint32_t pk_v4u __attribute__((vector_size(16)));
@@ -640,31 +640,22 @@ typedef int32_t pk_v4s __attribute__((vector_size(16)));
 static uint32_t emit_lanes2(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned dims, unsigned f)
 {
     const uint32_t iters = c / 4u, k = 4u * iters;
-    uint32_t lv[12] = { 0 }, le[12] = { 0 }, lg[12] = { 0 };
-    for (unsigned a = 0; a < dims; a++) {
-        pk_umf_t V = sp->s[0][a], d1 = sp->s[1][a], d2 = sp->s[2][a], e = 4 * d1 + 6 * d2;
-        /* t = 0..3: V(j + t) and its 4-step difference */
-        lv[a] = (uint32_t)V;
-        lv[dims + a] = (uint32_t)(V + d1);
-        lv[2 * dims + a] = (uint32_t)(V + 2 * d1 + d2);
-        lv[3 * dims + a] = (uint32_t)(V + 3 * d1 + 3 * d2);
-        le[a] = (uint32_t)e;
-        le[dims + a] = (uint32_t)(e + 4 * d2);
-        le[2 * dims + a] = (uint32_t)(e + 8 * d2);
-        le[3 * dims + a] = (uint32_t)(e + 12 * d2);
-        for (unsigned t = 0; t < 4u; t++)
-            lg[t * dims + a] = (uint32_t)(16 * d2);
-    }
     const uint32_t h = (uint32_t)1 << (f - 1u);
     const pk_v4u hv = { h, h, h, h };
     pk_v4u V0, V1, V2, E0, E1, E2, G0, G1, G2;
-    memcpy(&V0, lv, 16);
-    memcpy(&V1, lv + 4, 16);
-    memcpy(&E0, le, 16);
-    memcpy(&E1, le + 4, 16);
-    memcpy(&G0, lg, 16);
-    memcpy(&G1, lg + 4, 16);
     if (dims == 2u) {
+        /* lanes (t, a) = (0,x) (0,y) (1,x) (1,y) | (2,x) (2,y) (3,x) (3,y) */
+        const uint32_t vx = (uint32_t)sp->s[0][0], vy = (uint32_t)sp->s[0][1];
+        const uint32_t ax = (uint32_t)sp->s[1][0], ay = (uint32_t)sp->s[1][1];
+        const uint32_t bx = (uint32_t)sp->s[2][0], by = (uint32_t)sp->s[2][1];
+        const pk_v4u B = { vx, vy, vx, vy }, A = { ax, ay, ax, ay }, C = { bx, by, bx, by };
+        const pk_v4u t01 = { 0, 0, 1, 1 }, t23 = { 2, 2, 3, 3 }, c23 = { 1, 1, 3, 3 };
+        const pk_v4u e01 = { 6, 6, 10, 10 }, e23 = { 14, 14, 18, 18 };
+        V0 = B + t01 * A;
+        V1 = B + t23 * A + c23 * C;
+        E0 = 4u * A + e01 * C;
+        E1 = 4u * A + e23 * C;
+        G0 = 16u * C;
         for (uint32_t i = 0; i < iters; i++, p += 8) {
             pk_v4s o0 = (pk_v4s)(V0 + hv + (pk_v4u)((pk_v4s)V0 >> 31)) >> (int)f;
             pk_v4s o1 = (pk_v4s)(V1 + hv + (pk_v4u)((pk_v4s)V1 >> 31)) >> (int)f;
@@ -673,11 +664,32 @@ static uint32_t emit_lanes2(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
             V0 += E0;
             V1 += E1;
             E0 += G0;
-            E1 += G1;
+            E1 += G0;
         }
     } else {
+        uint32_t lv[12] = { 0 }, le[12] = { 0 }, lg[12] = { 0 };
+        for (unsigned a = 0; a < dims; a++) {
+            pk_umf_t V = sp->s[0][a], d1 = sp->s[1][a], d2 = sp->s[2][a], e = 4 * d1 + 6 * d2;
+            /* t = 0..3: V(j + t) and its 4-step difference */
+            lv[a] = (uint32_t)V;
+            lv[dims + a] = (uint32_t)(V + d1);
+            lv[2 * dims + a] = (uint32_t)(V + 2 * d1 + d2);
+            lv[3 * dims + a] = (uint32_t)(V + 3 * d1 + 3 * d2);
+            le[a] = (uint32_t)e;
+            le[dims + a] = (uint32_t)(e + 4 * d2);
+            le[2 * dims + a] = (uint32_t)(e + 8 * d2);
+            le[3 * dims + a] = (uint32_t)(e + 12 * d2);
+            for (unsigned t = 0; t < 4u; t++)
+                lg[t * dims + a] = (uint32_t)(16 * d2);
+        }
+        memcpy(&V0, lv, 16);
+        memcpy(&V1, lv + 4, 16);
         memcpy(&V2, lv + 8, 16);
+        memcpy(&E0, le, 16);
+        memcpy(&E1, le + 4, 16);
         memcpy(&E2, le + 8, 16);
+        memcpy(&G0, lg, 16);
+        memcpy(&G1, lg + 4, 16);
         memcpy(&G2, lg + 8, 16);
         for (uint32_t i = 0; i < iters; i++, p += 12) {
             pk_v4s o0 = (pk_v4s)(V0 + hv + (pk_v4u)((pk_v4s)V0 >> 31)) >> (int)f;
@@ -702,6 +714,7 @@ static uint32_t emit_lanes2(struct pk_span *sp, pk_um_t *p, uint32_t c, unsigned
     }
     return k;
 }
+#undef memcpy
 #define PK_SPAN_LANES 1
 #else
 #define PK_SPAN_LANES 0

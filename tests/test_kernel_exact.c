@@ -372,26 +372,27 @@ static void test_the_block_pull_gives_the_same_points_as_the_point_pull(void)
     struct variant v[40];
     unsigned nv = variants(v);
     for (unsigned k = 0; k < nv; k++)
-        for (unsigned depth = 0; depth <= 6u; depth += 2u)
-            for (int limit = 0; limit <= 2; limit += 2) {
-                rng_seed(7u * k + depth);
-                unsigned m = (unsigned)rng_range(0, 20), dims = 2u + (unsigned)rng_range(0, 1);
-                random_input(m, dims, 1);
-                struct pk_refine_cfg c = cfg_of(&v[k], depth, dims, limit);
-                unsigned n = 0, nb = 0;
-                int st = run_new(&c, m, &n);
-                if (st == PK_ENOTSUP)
-                    continue;
-                TH_ASSERT_EQ(st, PK_OK);
-                TH_ASSERT_EQ(run_block(&c, m, &nb, 99u + k), PK_OK);
-                TH_ASSERT_EQ(nb, n);
-                for (unsigned i = 0; i < n && i < nb; i++)
-                    for (unsigned a = 0; a < dims; a++) {
-                        TH_ASSERT_EQ(BP[(size_t)i * dims + a], OUT[i].p[a]);
-                        if (limit == 2)
-                            TH_ASSERT_EQ(BT[(size_t)i * dims + a], OUT[i].t[a]);
-                    }
-            }
+        for (unsigned depth = 0; depth <= 6u; depth++)
+            for (int limit = 0; limit <= 2; limit += 2)
+                for (unsigned dims = 2; dims <= 3u; dims++) {
+                    rng_seed(7u * k + depth + 1000u * dims);
+                    unsigned m = (unsigned)rng_range(0, 20);
+                    random_input(m, dims, (k + depth + dims) % 4u); /* every style, the range limits too */
+                    struct pk_refine_cfg c = cfg_of(&v[k], depth, dims, limit);
+                    unsigned n = 0, nb = 0;
+                    int st = run_new(&c, m, &n);
+                    if (st == PK_ENOTSUP)
+                        continue;
+                    TH_ASSERT_EQ(st, PK_OK);
+                    TH_ASSERT_EQ(run_block(&c, m, &nb, 99u + k), PK_OK);
+                    TH_ASSERT_EQ(nb, n);
+                    for (unsigned i = 0; i < n && i < nb; i++)
+                        for (unsigned a = 0; a < dims; a++) {
+                            TH_ASSERT_EQ(BP[(size_t)i * dims + a], OUT[i].p[a]);
+                            if (limit == 2)
+                                TH_ASSERT_EQ(BT[(size_t)i * dims + a], OUT[i].t[a]);
+                        }
+                }
 }
 
 
