@@ -109,7 +109,9 @@
  * engine serves B-spline degrees 1..3 with clamped or no end rule and closed
  * curves (and degree 1 with any rule); the level cascade serves DLG, the
  * replace rule of degrees 2..3 and every degree >= 4. */
-#define PK_HAVE_SPAN ((PK_BUILD_DEGREES & 0x0E) != 0 && !PK_CHAIKIN_ONLY)
+#define PK_HAVE_SPAN (((PK_BUILD_DEGREES & 0x02) != 0 || \
+                       ((PK_BUILD_DEGREES & 0x0C) != 0 && ((PK_BUILD_ENDS & 0x0A) != 0 || PK_BUILD_CLOSED))) && \
+                      !PK_CHAIKIN_ONLY)
 #define PK_HAVE_CASCADE ((PK_BUILD_DLG || (PK_BUILD_DEGREES & 0xF0) != 0 || \
                           ((PK_BUILD_ENDS & 0x04) != 0 && (PK_BUILD_DEGREES & 0x0C) != 0)) && !PK_CHAIKIN_ONLY)
 /** Highest degree the span engine handles in this build. */
@@ -136,8 +138,11 @@
 
 #include "pk_fixed.h"
 
-/** Points of history kept per cascade level: 4 for DLG, 5 for every degree
- *  up to 7 (the cascade is not built into Chaikin/cubic-only builds). */
+/** Points of history kept per cascade level: DLG needs 4, degree D
+ *  (D + 1) / 2 + 1, so 5 covers every degree up to 7; pk_refine_init answers
+ *  PK_ENOTSUP for a scheme that needs more. Only the cascade (DLG, degrees
+ *  >= 4, the replace rule of degrees 2..3) uses it: builds without one (e.g.
+ *  Chaikin or the cubic with clamped ends) ignore it. */
 #ifndef PK_WIN
 #define PK_WIN 5
 #endif

@@ -172,7 +172,7 @@ static void set_top_uniform(struct pk_refine *r, uint32_t s)
 #endif
     struct pk_span *sp = &r->e.sp;
 #if PK_SPAN_DMAX >= 2
-    if (PK_SPAN_DMAX == 2 || sp->D == 2u) {
+    if (PK_SPAN_ONE_D == 2 || sp->D == 2u) {
         set_top2(r, s, 1, 1);
         return;
     }

@@ -73,6 +73,12 @@ static int expected_supported(const struct pk_refine_cfg *c)
         return 0;
     if (c->closed && (c->scheme == PK_SCHEME_DLG ? 5u : D < 2u ? 2u : D) > PK_CLOSE_MAX)
         return 0;
+    /* the level cascade (DLG, degrees >= 4, the replace rule of 2..3) keeps
+     * PK_WIN points per level: DLG needs 4, degree D (D + 1) / 2 + 1 */
+    int cascade = c->depth > 0u && (c->scheme == PK_SCHEME_DLG || D >= 4u ||
+                                    (D >= 2u && !c->closed && ends == PK_ENDS_REPLACE));
+    if (cascade && (c->scheme == PK_SCHEME_DLG ? 4u : (D + 1u) / 2u + 1u) > PK_WIN)
+        return 0;
     return 1;
 }
 
