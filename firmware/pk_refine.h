@@ -172,6 +172,9 @@
 #if PK_BUILD_DEGREES == 0 && !PK_BUILD_DLG
 #error "build at least one scheme"
 #endif
+#if !PK_BUILD_DLG && !PK_BUILD_CLOSED && PK_BUILD_ENDS == 0x02 && (PK_BUILD_DEGREES & 0x0E) == 0
+#error "clamped ends exist for degrees 1..3 only: this build would support nothing"
+#endif
 #if PK_UMF_BITS == 32 && (PK_HAVE_CASCADE || PK_F_MAX_SPAN > 10)
 #error "PK_UMF_BITS=32 needs a build without the cascade and with at most 10 fraction bits"
 #endif
