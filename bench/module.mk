@@ -4,7 +4,9 @@
 #   make bench         host benchmarks against the peers, AVR cycle counts, motion time
 #   make bench-host    kernel vs double baseline vs npm peers (bench/run_bench.py)
 #   make bench-avr     exact cycles under simavr: the kernel on an ATmega328P, the board images
+#   make bench-corpus  real G-code files through plotkin sim (bench/corpus/module.mk)
 include tests/targets/module.mk
+include bench/corpus/module.mk
 
 BENCH_DIR := $(BUILD)/bench
 
