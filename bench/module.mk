@@ -91,7 +91,7 @@ bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_mo
 bench:
 	@bash .ci/deps.sh base targets
 	@for t in valgrind node npm; do command -v $$t >/dev/null || { bash .ci/deps.sh bench; break; }; done
-	@$(MAKE) --no-print-directory bench-host bench-avr bench-sizes
+	@$(MAKE) --no-print-directory bench-host bench-sizes bench-avr
 
 # bench/module.mk — benchmark programs (print tables; never pass/fail).
 #   make bench-motion   total motion time: smoothing off vs tolerance vs an ideal trapezoid
