@@ -427,7 +427,8 @@ int pk_path_init(struct pk_path *pa, unsigned dims, uint32_t cap, double step_um
     pa->blk = calloc(nblk(pa), sizeof *pa->blk);
     pa->grp = calloc(ngrp(pa), sizeof *pa->grp);
     pa->hist = calloc(PK_PATH_HIST_BINS, sizeof *pa->hist);
-    if (pa->ring == NULL || pa->blk == NULL || pa->grp == NULL || pa->hist == NULL)
+    pa->dup = calloc(2u * (size_t)c, sizeof *pa->dup);
+    if (pa->ring == NULL || pa->blk == NULL || pa->grp == NULL || pa->hist == NULL || pa->dup == NULL)
         return -1;
     pa->m_min_um = step_um > 0.0 ? step_um / 2.0 : 1.0;
     pa->m_um = 4.0 * pa->m_min_um;
@@ -442,6 +443,8 @@ void pk_path_free(struct pk_path *pa)
     free(pa->blk);
     free(pa->grp);
     free(pa->hist);
+    free(pa->dup);
+    pa->dup = NULL;
     pa->ring = NULL;
     pa->blk = pa->grp = NULL;
     pa->hist = NULL;
@@ -495,6 +498,88 @@ static void drop_oldest(struct pk_path *pa)
     }
 }
 
+/* ---- repeated strokes ------------------------------------------------------------ */
+/* Same point set? Lines either way round; curves as given. */
+static int same_set(const struct pk_path_prim *a, const struct pk_path_prim *b)
+{
+    if (a->kind != b->kind)
+        return 0;
+    int fwd = memcmp(a->p0, b->p0, sizeof a->p0) == 0 && memcmp(a->p1, b->p1, sizeof a->p1) == 0;
+    if (a->kind == PK_PATH_LINE)
+        return fwd || (memcmp(a->p0, b->p1, sizeof a->p0) == 0 && memcmp(a->p1, b->p0, sizeof a->p1) == 0);
+    if (!fwd)
+        return 0;
+    if (a->kind == PK_PATH_ARC)
+        return a->plane == b->plane && a->centre[0] == b->centre[0] && a->centre[1] == b->centre[1] &&
+               a->r0 == b->r0 && a->r1 == b->r1 && a->a0 == b->a0 && a->sweep == b->sweep;
+    return memcmp(a->c, b->c, sizeof a->c) == 0;
+}
+
+static uint64_t mix(uint64_t h, double v)
+{
+    uint64_t u;
+    v = v == 0.0 ? 0.0 : v; /* -0 and +0 alike */
+    memcpy(&u, &v, sizeof u);
+    h ^= u + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+    return h * 0xff51afd7ed558ccdull;
+}
+
+/* A hash that does not depend on a line's direction. */
+static uint64_t geo_hash(const struct pk_path_prim *p)
+{
+    uint64_t ha = 0x12345u, hb = 0x6789u;
+    for (int i = 0; i < 3; i++) {
+        ha = mix(ha, p->p0[i]);
+        hb = mix(hb, p->p1[i]);
+    }
+    uint64_t h = (ha ^ hb) + (ha + hb) * 31u + p->kind;
+    if (p->kind != PK_PATH_LINE)
+        for (int i = 0; i < 3; i++)
+            h = mix(h, p->c[0][i] + p->centre[0] * (i == 0) + p->sweep * (i == 1));
+    return h ^ (h >> 29);
+}
+
+static uint64_t dup_replace(struct pk_path *pa, uint64_t seq);
+
+/* After cap insertions the table may hold up to cap stale slots: start it
+ * again from the live entries of the window (O(1) per insertion overall). */
+static void dup_rebuild(struct pk_path *pa)
+{
+    memset(pa->dup, 0, 2u * (size_t)pa->cap * sizeof *pa->dup);
+    for (uint64_t s = pa->tail; s < pa->head; s++)
+        if (!ent(pa, s)->dead)
+            (void)dup_replace(pa, s);
+    pa->dup_inserts = 0;
+}
+
+/* Enter seq; a live entry with the same point set is marked dead (returned), or SEQ_NONE. */
+static uint64_t dup_replace(struct pk_path *pa, uint64_t seq)
+{
+    const struct pk_path_prim *p = &ent(pa, seq)->p;
+    const size_t mask = 2u * (size_t)pa->cap - 1u;
+    size_t i = (size_t)geo_hash(p) & mask, free_slot = SIZE_MAX;
+    for (size_t probes = 0; probes <= mask; probes++, i = (i + 1u) & mask) {
+        uint64_t v = pa->dup[i];
+        if (v == 0u)
+            break;
+        uint64_t s = v - 1u;
+        if (s < pa->tail || ent(pa, s)->dead) {
+            if (free_slot == SIZE_MAX)
+                free_slot = i;
+            continue;
+        }
+        if (same_set(&ent(pa, s)->p, p)) {
+            ent(pa, s)->dead = 1;
+            pa->dup[i] = seq + 1u;
+            return s;
+        }
+    }
+    if (free_slot == SIZE_MAX)
+        free_slot = i;
+    pa->dup[free_slot] = seq + 1u;
+    return SEQ_NONE;
+}
+
 void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
 {
     pa->st.prims++;
@@ -503,6 +588,8 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
         return; /* a repeated point: already on the path */
     if (pa->head - pa->tail == pa->cap)
         drop_oldest(pa);
+    if (pa->dup_inserts >= pa->cap)
+        dup_rebuild(pa); /* before the new entry exists */
     uint64_t seq = pa->head++;
     struct pk_path_ent *e = ent(pa, seq);
     double lo[3], hi[3];
@@ -539,6 +626,18 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
     box_add(g->lo, g->hi, elo);
     box_add(g->lo, g->hi, ehi);
     pa->st.stored++;
+    e->dead = 0;
+    uint64_t old = dup_replace(pa, seq);
+    pa->dup_inserts++;
+    if (old != SEQ_NONE) {
+        pa->st.repeats++;
+        for (unsigned i = 0; i < pa->n_cand; i++)
+            if (pa->cand[i].seq == old) { /* the new entry takes its place (same distance) */
+                memmove(&pa->cand[i], &pa->cand[i + 1], (pa->n_cand - i - 1u) * sizeof pa->cand[0]);
+                pa->n_cand--;
+                break;
+            }
+    }
     memcpy(pa->last_end, p->p1, sizeof pa->last_end);
     if (p->kind == PK_PATH_ARC)
         arc_eval(p, 1.0, pa->last_end);
@@ -574,9 +673,11 @@ static void visit(struct pk_path *pa, const double *q, double *lim, visit_fn fn,
             const struct pk_path_box *b = blk_of(pa, s);
             uint64_t bend = b1 < gend ? b1 : gend;
             if (box_dist(b->lo, b->hi, q, dims) <= *lim) {
-                for (; s < bend; s++)
-                    if (ent_box_dist(ent(pa, s), q, dims) <= *lim)
+                for (; s < bend; s++) {
+                    const struct pk_path_ent *e = ent(pa, s);
+                    if (!e->dead && ent_box_dist(e, q, dims) <= *lim)
                         fn(pa, s, lim, q, arg);
+                }
             }
             s = bend;
         }
@@ -605,6 +706,8 @@ static struct nearest nearest(struct pk_path *pa, const double *q)
     if (pa->cursor != SEQ_NONE) {
         uint64_t c0 = pa->cursor >= pa->tail + 2u ? pa->cursor - 2u : pa->tail;
         for (uint64_t s = c0; s < pa->head && s <= pa->cursor + 2u; s++) {
+            if (ent(pa, s)->dead)
+                continue;
             double d = pk_path_prim_dist(&ent(pa, s)->p, q, pa->dims, NULL);
             if (d < n.d || (d == n.d && s < n.seq)) {
                 n.d = d;
@@ -701,6 +804,8 @@ double pk_path_window_dist(const struct pk_path *pa, const double pt[3])
         return -1.0;
     double best = INFINITY;
     for (uint64_t s = pa->tail; s < pa->head; s++) {
+        if (ent(pa, s)->dead)
+            continue; /* a later entry is the same point set */
         double d = pk_path_prim_dist(&ent(pa, s)->p, pt, pa->dims, NULL);
         if (d < best)
             best = d;

@@ -47,6 +47,11 @@
  * by the last PK_PATH_LAG_POINTS points, by PK_PATH_BACK primitives, or older
  * than the newest minus PK_PATH_BACK once the owner has called
  * pk_path_all_executed (the machine is idle: everything added has been run).
+ * A primitive that is the same point set as one in the window (a line drawn
+ * again, either way, or the same curve again: multi-pass and back-and-forth
+ * drawing) replaces it: the older entry is skipped from then on, so a stroke
+ * drawn a hundred times costs the matcher one stroke, and the line number
+ * reported for it is the latest one.
  * pk_path_room says how many primitives can be added without dropping one that
  * is not released; a producer that cannot wait (a serial sender) may add more:
  * the oldest is then dropped anyway and counted in `forced_drops`, and the
@@ -168,6 +173,7 @@ struct pk_path_stats {
     uint8_t max_drawn;      /**< pen state of that primitive */
     uint64_t prims;         /**< primitives added (stored or not) */
     uint64_t stored;        /**< primitives stored (zero-length repeats are not) */
+    uint64_t repeats;       /**< stored ones that replaced the same point set in the window */
     uint64_t dropped;       /**< primitives dropped from the full window, released */
     uint64_t forced_drops;  /**< dropped before they were released: figures are upper bounds */
     uint64_t rebuilds;      /**< candidate-list rebuilds (cost diagnostics) */
@@ -177,6 +183,7 @@ struct pk_path_stats {
 struct pk_path_ent {
     struct pk_path_prim p;
     float lo[3], hi[3];     /**< bounding box, rounded outwards */
+    uint8_t dead;           /**< a later entry is the same point set (a repeated stroke) */
 };
 
 /** Private: a bounding box of a block (32 entries) or a group (1024). */
@@ -213,11 +220,13 @@ struct pk_path {
     /* figures */
     struct pk_path_stats st;
     uint32_t *hist;                   /* PK_PATH_HIST_BINS counts */
+    uint64_t *dup;                    /* 2 cap slots: seq + 1 of entries by geometry (0: empty) */
+    uint64_t dup_inserts;             /* since the table was last rebuilt */
     uint64_t hist_zero;               /* deviations below PK_PATH_HIST_MIN_UM */
 };
 
 /** Bytes of memory per window entry (for the memory bound). */
-#define PK_PATH_ENTRY_BYTES (sizeof(struct pk_path_ent) + sizeof(struct pk_path_box) / 32u + 2u)
+#define PK_PATH_ENTRY_BYTES (sizeof(struct pk_path_ent) + sizeof(struct pk_path_box) / 32u + 2u + 16u)
 
 /**
  * Set up an empty path. dims: 2 or 3 axes measured; cap: window size (rounded

@@ -1,0 +1,221 @@
+/*
+ * test_sim_measure.c — the figures `plotkin sim` (and `plotkin serve`'s
+ * summary) print about a run, end to end through the firmware, each checked
+ * against an independent computation from the decoded step events:
+ *   - the deviation of a straight line of points 1 µm apart (the reproducer
+ *     of issue 11: it read 7.07 mm where the steps never leave the line by
+ *     more than a step), at 80 and at 1 step/mm, with repeated points;
+ *   - the speed of an axis stepping once a second (it read 0.0);
+ *   - speeds in `plotkin serve` across a `$100=` change (they were converted
+ *     with the final steps/mm);
+ *   - memory: the programmed path's window holds a fixed number of
+ *     primitives however long the program.
+ */
+#define _GNU_SOURCE 1 /* open_memstream */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "th.h"
+#include "serve_sim.h"
+#include "sim_run.h"
+
+static const struct pk_timing_limits drv8825 = PK_TIMING_DRV8825;
+
+static void opts_for(struct pk_sim_opts *o, const char *chip, const struct pk_sim_cfg *cfg, const char *prog)
+{
+    memset(o, 0, sizeof *o);
+    o->chip = chip;
+    o->cfg = cfg;
+    o->program = prog;
+    o->len = strlen(prog);
+    o->lim = drv8825;
+    o->keep_events = 1;
+}
+
+/* Distance from p to segment ab (2-D). */
+static double seg2(double ax, double ay, double bx, double by, double px, double py)
+{
+    double dx = bx - ax, dy = by - ay, L2 = dx * dx + dy * dy;
+    double t = L2 > 0 ? ((px - ax) * dx + (py - ay) * dy) / L2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return hypot(ax + t * dx - px, ay + t * dy - py);
+}
+
+/* G1 to X0 Y10, then a line of points 1 µm apart along X to X8 (each
+ * written `rep` times). */
+static char *line_of_points(int rep)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    fprintf(f, "G21 G90\nG1 X0 Y10 F3000\n");
+    for (int i = 1; i <= 8000; i++)
+        for (int k = 0; k < rep; k++)
+            fprintf(f, "G1 X%d.%03d Y10\n", i / 1000, i % 1000);
+    fprintf(f, "M2\n");
+    fclose(f);
+    return buf;
+}
+
+static void check_line_run(double spmm, int rep)
+{
+    static struct pk_sim_cfg cfg;
+    static struct pk_sim_result r;
+    struct pk_sim_opts o;
+    pk_sim_cfg_default(&cfg);
+    cfg.steps_per_mm[0] = cfg.steps_per_mm[1] = spmm;
+    cfg.max_rate[0] = cfg.max_rate[1] = 3000;
+    char *prog = line_of_points(rep);
+    opts_for(&o, "measure-line", &cfg, prog);
+    TH_ASSERT_EQ(pk_sim_run(&o, &r), 0);
+    TH_EXPECT_EQ(r.run_status, PK_SIM_RUN_FINISHED);
+    /* independent: every decoded step instant (after all axes of its tick)
+     * against the two legs of the programmed path */
+    const double step = 1000.0 / spmm;
+    int64_t p[PK_HAL_MAX_AXES] = { 0 };
+    double worst = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < r.dec.n_ev; i++) {
+        p[r.dec.ev[i].axis] += r.dec.ev[i].dir;
+        if (i + 1 < r.dec.n_ev && r.dec.ev[i + 1].t == r.dec.ev[i].t)
+            continue;
+        double x = (double)p[0] * step, y = (double)p[1] * step;
+        double d = fmin(seg2(0, 0, 0, 10000, x, y), seg2(0, 10000, 8000, 10000, x, y));
+        worst = fmax(worst, d);
+        n++;
+    }
+    TH_EXPECT_EQ(r.prog.st.points, n);
+    TH_EXPECT(fabs(r.deviation_um - worst) < 1e-6);
+    TH_EXPECT(r.deviation_um <= 0.5 * M_SQRT2 * step + 1e-9); /* the corner is kept sharp */
+    TH_EXPECT_EQ(r.prog.st.forced_drops, 0);
+    TH_EXPECT(r.deviation_p95_um <= r.deviation_um);
+    if (getenv("PK_VERBOSE"))
+        printf("    %g steps/mm x%d: deviation %.4f um (independent %.4f), %zu points, %llu stored\n", spmm, rep,
+               r.deviation_um, worst, n, (unsigned long long)r.prog.st.stored);
+    pk_sim_result_free(&r);
+    free(prog);
+}
+
+static void test_a_line_of_points_1um_apart_deviates_by_what_its_steps_do(void)
+{
+    check_line_run(80.0, 1);
+    check_line_run(1.0, 1); /* the job runs the whole file ahead of the machine here */
+    check_line_run(80.0, 3); /* each point repeated */
+}
+
+static void test_an_axis_stepping_once_a_second_reads_its_speed(void)
+{
+    static struct pk_sim_cfg cfg;
+    static struct pk_sim_result r;
+    struct pk_sim_opts o;
+    pk_sim_cfg_default(&cfg);
+    cfg.steps_per_mm[1] = 1.0; /* Y: 1 step/mm */
+    /* 45 degrees at 1.4142 mm/s: each axis at 1 mm/s, Y at 1 step/s */
+    const char *prog = "G21 G90\nG1 X20 Y20 F84.853\nM2\n";
+    opts_for(&o, "measure-slow", &cfg, prog);
+    TH_ASSERT_EQ(pk_sim_run(&o, &r), 0);
+    TH_ASSERT_EQ(r.dec.pos[1], 20);
+    /* independent: the Y step times, their fastest run of 16 and of 2 */
+    uint64_t ty[32];
+    size_t ny = 0;
+    for (size_t i = 0; i < r.dec.n_ev && ny < 32; i++)
+        if (r.dec.ev[i].axis == 1)
+            ty[ny++] = r.dec.ev[i].t;
+    TH_ASSERT_EQ(ny, 20u);
+    double v16 = 0, v2 = 0;
+    for (size_t i = 15; i < ny; i++)
+        v16 = fmax(v16, 15.0 * 1e6 / (double)(ty[i] - ty[i - 15]));
+    for (size_t i = 1; i < ny; i++)
+        v2 = fmax(v2, 1e6 / (double)(ty[i] - ty[i - 1]));
+    TH_EXPECT(fabs(r.max_speed_mm_s[1] - v16) < 1e-9);
+    TH_EXPECT(fabs(r.max_speed2_mm_s[1] - v2) < 1e-9);
+    TH_EXPECT(fabs(r.max_speed_mm_s[1] - 1.0) < 0.01); /* 1 mm/s, not 0.0 */
+    TH_EXPECT(fabs(r.max_speed_mm_s[0] - 1.0) < 0.01);
+    pk_sim_result_free(&r);
+}
+
+/* `plotkin serve`: the machine at 160 steps/mm, then at 80; both moves at
+ * 10 mm/s. Converted with the final steps/mm the first would read 20. */
+static void send_wait(struct pk_serve_sim *s, const char *text, unsigned lines)
+{
+    for (const char *p = text; *p; p++) {
+        for (int spins = 0; pk_uart_rx_space(&s->uart) == 0 && spins < 100000; spins++)
+            TH_ASSERT_EQ(pk_serve_sim_run(s, 1000), 0);
+        pk_uart_rx_push(&s->uart, (uint8_t)*p);
+        pk_serve_sim_wake(s);
+    }
+    for (int i = 0; i < 60000; i++) {
+        TH_ASSERT_EQ(pk_serve_sim_run(s, 1000), 0);
+        uint8_t b[64];
+        while (pk_uart_tx_pop(&s->uart, b, sizeof b) > 0)
+            ;
+        if (s->g.stats.lines >= lines && pk_machine_state(&s->r.m) == PK_STATE_IDLE && !s->r.hw.sched.armed)
+            break;
+    }
+}
+
+static void test_serve_converts_speeds_with_the_steps_per_mm_in_force(void)
+{
+    static struct pk_serve_sim s;
+    TH_ASSERT_EQ(pk_serve_sim_start(&s, "measure-serve", &drv8825), 0);
+    send_wait(&s, "$100=160\n", 1);
+    send_wait(&s, "G21 G90\nG1 X10 F600\nG1 X0\n", 4);
+    TH_ASSERT_EQ(s.r.dec.pos[0], 0);
+    TH_ASSERT_EQ(s.r.dec.steps[0], 3200u); /* 2 x 10 mm at 160 steps/mm */
+    send_wait(&s, "$100=80\n", 5);
+    send_wait(&s, "G1 X10\n", 6);
+    TH_ASSERT_EQ(pk_serve_sim_finish(&s), 0);
+    TH_ASSERT_EQ(s.r.m.cfg.steps_per_mm_q16[0], 80u << 16); /* the change took effect */
+    TH_ASSERT_EQ(s.r.dec.pos[0], 800);
+    /* 10 mm/s both times (the peak of a 10 mm move at 1000 mm/s^2) */
+    TH_EXPECT(s.r.max_speed_mm_s[0] > 9.9 && s.r.max_speed_mm_s[0] < 10.1);
+    TH_EXPECT(s.r.rate[0].speed16.lo_max <= 10.0 + 1e-9);
+    pk_serve_sim_free(&s);
+}
+
+/* Memory: the window is allocated once; a program 4 times as long stores no
+ * more of it. */
+static void test_the_programmed_path_is_held_in_a_fixed_window(void)
+{
+    static struct pk_sim_cfg cfg;
+    static struct pk_sim_result r;
+    struct pk_sim_opts o;
+    pk_sim_cfg_default(&cfg);
+    char *buf = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&buf, &len);
+    fprintf(f, "G21 G90\nM3\n");
+    for (int i = 0; i < 2500; i++) { /* a spiral of 2,500 moves */
+        double rad = 5.0 + 0.004 * i, th = 0.1 * i;
+        fprintf(f, "G1 X%.3f Y%.3f F6000\n", 50 + rad * cos(th), 50 + rad * sin(th));
+    }
+    fprintf(f, "M5\nM2\n");
+    fclose(f);
+    opts_for(&o, "measure-window", &cfg, buf);
+    o.keep_events = 0;
+    o.path_cap = 1024;
+    TH_ASSERT_EQ(pk_sim_run(&o, &r), 0);
+    TH_EXPECT_EQ(r.run_status, PK_SIM_RUN_FINISHED);
+    TH_EXPECT_EQ(r.prog.cap, 1024u);
+    TH_EXPECT(r.prog.st.stored > 2400u);
+    TH_EXPECT(r.prog.st.dropped > 1300u);
+    TH_EXPECT_EQ(r.prog.st.forced_drops, 0); /* the job waited for room */
+    TH_EXPECT(r.deviation_um >= 0.0);
+    pk_sim_result_free(&r);
+    free(buf);
+}
+
+int th_main(int argc, char **argv);
+int th_main(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    static const struct th_case cases[] = {
+        TH_CASE(test_a_line_of_points_1um_apart_deviates_by_what_its_steps_do),
+        TH_CASE(test_an_axis_stepping_once_a_second_reads_its_speed),
+        TH_CASE(test_serve_converts_speeds_with_the_steps_per_mm_in_force),
+        TH_CASE(test_the_programmed_path_is_held_in_a_fixed_window),
+    };
+    return th_run(cases, TH_COUNT(cases));
+}
