@@ -12,7 +12,7 @@
 #include <string.h>
 #include "pk_motion.h"
 
-enum { PK_REQ_MOVE = 0, PK_REQ_PEN, PK_REQ_DWELL, PK_REQ_SMOOTH, PK_REQ_END };
+enum { PK_REQ_MOVE = 0, PK_REQ_PEN, PK_REQ_DWELL, PK_REQ_SMOOTH, PK_REQ_END, PK_REQ_SPINDLE };
 
 /** Work items per poll (bounds the main-loop latency). */
 #define POLL_BUDGET 64u
@@ -41,7 +41,7 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
         return -1;
     if (c->step_pulse_ticks < 1u || c->dir_setup_ticks > tick_hz)
         return -1;
-    if (c->pen_settle_ms > 60000u || c->pen_down_level > 1u)
+    if (c->pen_settle_ms > 60000u || c->pen_down_level > 1u || c->lookahead_wait_ms > 60000u)
         return -1;
     if (pk_stroke_check(&c->smooth) != 0)
         return -1;
@@ -81,6 +81,9 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
     if (m->cfg.axes == 0)
         m->cfg.axes = PK_AXES;
     m->hal = hal;
+    m->ovr_feed_pct = 100u;
+    m->ovr_rapid_pct = 100u;
+    m->acc_policy = m->policy_applied = cfg->smooth;
     setup_modules(m);
     uint32_t all = (1u << m->cfg.axes) - 1u;
     if (pk_hal_step_write(hal, all, 0u) != 0 || pk_hal_dir_write(hal, all, 0u) != 0)
@@ -120,6 +123,9 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     m->sg.dir_cur = dir;
     m->sg.alarm = alarm;
     m->lines_planned = lines;
+    pk_planner_set_override(&m->planner, &m->mq, m->ovr_feed_pct, m->ovr_rapid_pct);
+    m->acc_n = 0;
+    m->acc_policy = m->policy_applied = cfg->smooth;
     return PK_MOTION_OK;
 }
 
@@ -150,27 +156,135 @@ uint32_t pk_machine_room(const struct pk_machine *m)
     return alarmed(m) ? 0u : (uint32_t)PK_MACHINE_INQ - m->inq_count;
 }
 
-int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
-                    enum pk_move_kind kind)
+/* Does the smoothing policy requested last (the one later moves will get)
+ * use a scheme that can leave the hull of its control points? */
+static bool policy_overshoots(const struct pk_smooth_cfg *s)
+{
+    return s->mode == PK_SMOOTH_FIXED && s->scheme == PK_SCHEME_DLG && s->depth > 0u;
+}
+
+/* The box [lo, hi] the smoothed path of the current run (the feed moves since
+ * the last other request) stays in once target joins it. Only DLG leaves the
+ * hull of its control points: each level moves a new point by at most
+ * (|D2[i]| + |D2[i+1]|)/16 off the edge midpoint, and the level's second
+ * differences are at most half the previous ones (old points: (6D2[i] -
+ * D2[i-1] - D2[i+1])/16, new ones: (D2[i] + D2[i+1])/8), so the whole path
+ * stays within max|D2|/8 * (1 + 1/2 + 1/4 + ...) = max|D2|/4 of the control
+ * polygon, per axis. B-splines stay in the hull. Returns the run box grown by
+ * that bound (+1 µm for the kernel's rounding). */
+static void run_box(const struct pk_machine *m, const pk_um_t t[PK_AXES], bool dlg,
+                    int64_t lo[PK_AXES], int64_t hi[PK_AXES])
+{
+    for (uint32_t i = 0; i < axes_of(m); i++) {
+        int64_t a = t[i], b = t[i];
+        uint64_t d2 = 0;
+        if (m->acc_n > 0) {
+            if (m->acc_lo[i] < a) a = m->acc_lo[i];
+            if (m->acc_hi[i] > b) b = m->acc_hi[i];
+            d2 = m->acc_d2[i];
+        }
+        if (m->acc_n >= 2) {
+            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
+            uint64_t ad = (uint64_t)(d < 0 ? -d : d);
+            if (ad > d2) d2 = ad;
+        }
+        int64_t g = dlg ? (int64_t)((d2 + 3u) / 4u) + 1 : 0;
+        lo[i] = a - g;
+        hi[i] = b + g;
+    }
+}
+
+static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
+{
+    if (!feed) {
+        /* a rapid starts a new run at its target */
+        m->acc_n = 1;
+        memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+        memcpy(m->acc_lo, t, sizeof m->acc_lo);
+        memcpy(m->acc_hi, t, sizeof m->acc_hi);
+        memset(m->acc_d2, 0, sizeof m->acc_d2);
+        return;
+    }
+    for (uint32_t i = 0; i < axes_of(m); i++) {
+        if (m->acc_n == 0) {
+            m->acc_lo[i] = m->acc_hi[i] = t[i];
+            m->acc_d2[i] = 0;
+            continue;
+        }
+        if (t[i] < m->acc_lo[i]) m->acc_lo[i] = t[i];
+        if (t[i] > m->acc_hi[i]) m->acc_hi[i] = t[i];
+        if (m->acc_n >= 2) {
+            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
+            uint32_t ad = (uint32_t)(d < 0 ? -d : d);
+            if (ad > m->acc_d2[i]) m->acc_d2[i] = ad;
+        }
+    }
+    memcpy(m->acc_p[0], m->acc_p[1], sizeof m->acc_p[0]);
+    memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+    if (m->acc_n < 2)
+        m->acc_n++;
+}
+
+/* A request other than a move ends the run (the stroke ends there). */
+static void run_break(struct pk_machine *m)
+{
+    if (m->acc_n > 0)
+        run_add(m, m->acc_p[1], false);
+}
+
+static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                    enum pk_move_kind kind, pk_um_t chord_err_um)
 {
     if (alarmed(m))
         return PK_MOTION_EALARM;
     if (kind != PK_MOVE_FEED && kind != PK_MOVE_RAPID)
         return PK_MOTION_ERANGE;
-    if (kind == PK_MOVE_FEED && (feed < 1u || feed > PK_UM_MIN_MAX))
+    if (kind == PK_MOVE_FEED && (feed < PK_UM_MIN_MIN || feed > PK_UM_MIN_MAX))
         return PK_MOTION_ERANGE;
     for (uint32_t i = 0; i < axes_of(m); i++)
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
+    {
+        int64_t lo[PK_AXES], hi[PK_AXES];
+        bool dlg = kind == PK_MOVE_FEED && policy_overshoots(&m->acc_policy);
+        if (kind == PK_MOVE_FEED) {
+            run_box(m, target, dlg, lo, hi);
+        } else {
+            for (uint32_t i = 0; i < axes_of(m); i++)
+                lo[i] = hi[i] = target[i];
+        }
+        for (uint32_t i = 0; i < axes_of(m); i++) {
+            if (lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
+                return PK_MOTION_ERANGE;
+            if (m->soft_on && (lo[i] < m->soft_lo[i] || hi[i] > m->soft_hi[i]))
+                return PK_MOTION_ETRAVEL;
+        }
+    }
     struct pk_req *r = req_slot(m);
     if (r == NULL)
         return PK_MOTION_EFULL;
+    run_add(m, target, kind == PK_MOVE_FEED);
     r->type = PK_REQ_MOVE;
     r->kind = (uint8_t)kind;
     for (uint32_t i = 0; i < PK_AXES; i++)
         r->p[i] = i < axes_of(m) ? target[i] : 0;
     r->arg = kind == PK_MOVE_FEED ? feed : 0u;
+    r->chord_err_um = chord_err_um;
     return req_commit(m);
+}
+
+int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                    enum pk_move_kind kind)
+{
+    return move_req(m, target, feed, kind, 0);
+}
+
+int pk_machine_move_chord(struct pk_machine *m, const pk_um_t target[PK_AXES],
+                          pk_um_min_t feed, pk_um_t chord_err_um)
+{
+    if (chord_err_um < 0 || chord_err_um > 10000)
+        return alarmed(m) ? PK_MOTION_EALARM : PK_MOTION_ERANGE;
+    return move_req(m, target, feed, PK_MOVE_FEED, chord_err_um);
 }
 
 int pk_machine_pen(struct pk_machine *m, bool down)
@@ -181,6 +295,7 @@ int pk_machine_pen(struct pk_machine *m, bool down)
     if (r == NULL)
         return PK_MOTION_EFULL;
     r->type = PK_REQ_PEN;
+    run_break(m);
     r->kind = (uint8_t)(down ? m->cfg.pen_down_level : (m->cfg.pen_down_level ^ 1u));
     r->arg = m->cfg.pen_settle_ms;
     return req_commit(m);
@@ -196,6 +311,7 @@ int pk_machine_dwell(struct pk_machine *m, uint32_t ms)
     if (r == NULL)
         return PK_MOTION_EFULL;
     r->type = PK_REQ_DWELL;
+    run_break(m);
     r->arg = ms;
     return req_commit(m);
 }
@@ -210,6 +326,8 @@ int pk_machine_set_smoothing(struct pk_machine *m, const struct pk_smooth_cfg *s
     if (r == NULL)
         return PK_MOTION_EFULL;
     r->type = PK_REQ_SMOOTH;
+    m->acc_policy = *s;
+    run_break(m);
     r->smooth = *s;
     return req_commit(m);
 }
@@ -222,7 +340,48 @@ int pk_machine_end(struct pk_machine *m)
     if (r == NULL)
         return PK_MOTION_EFULL;
     r->type = PK_REQ_END;
+    run_break(m);
     return req_commit(m);
+}
+
+int pk_machine_spindle(struct pk_machine *m, uint16_t value_q16, bool sync)
+{
+    if (alarmed(m))
+        return PK_MOTION_EALARM;
+    struct pk_req *r = req_slot(m);
+    if (r == NULL)
+        return PK_MOTION_EFULL;
+    r->type = PK_REQ_SPINDLE;
+    r->kind = sync ? 1u : 0u;
+    r->arg = value_q16;
+    run_break(m);
+    return req_commit(m);
+}
+
+int pk_machine_set_override(struct pk_machine *m, uint16_t feed_pct, uint16_t rapid_pct)
+{
+    if (feed_pct < 10u || feed_pct > 200u || rapid_pct < 1u || rapid_pct > 100u)
+        return PK_MOTION_ERANGE;
+    m->ovr_feed_pct = feed_pct;
+    m->ovr_rapid_pct = rapid_pct;
+    pk_planner_set_override(&m->planner, &m->mq, feed_pct, rapid_pct);
+    return PK_MOTION_OK;
+}
+
+int pk_machine_set_soft_limits(struct pk_machine *m, bool on, const pk_um_t lo[PK_AXES],
+                               const pk_um_t hi[PK_AXES])
+{
+    if (on) {
+        if (lo == NULL || hi == NULL)
+            return PK_MOTION_ERANGE;
+        for (uint32_t i = 0; i < axes_of(m); i++)
+            if (lo[i] > hi[i] || lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
+                return PK_MOTION_ERANGE;
+        memcpy(m->soft_lo, lo, sizeof m->soft_lo);
+        memcpy(m->soft_hi, hi, sizeof m->soft_hi);
+    }
+    m->soft_on = on;
+    return PK_MOTION_OK;
 }
 
 /* ----------------------------------------------------------- main loop */
@@ -254,8 +413,10 @@ static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_s_t 
     int r = pk_planner_add_line(&m->planner, &m->mq, d_um, d_steps, feed);
     if (r < 0)
         return false;
-    if (r > 0)
+    if (r > 0) {
         m->lines_planned++;
+        pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u)->spindle = m->spindle_q16;
+    }
     memcpy(m->target_um, p, sizeof m->target_um);
     memcpy(m->target_steps, st, sizeof m->target_steps);
     return true;
@@ -357,13 +518,20 @@ static void take_requests(struct pk_machine *m)
             (void)plan_line(m, r->p, 0u);
             break;
         case PK_REQ_PEN:
-            (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, r->arg);
+            (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, 0u, r->arg);
             break;
         case PK_REQ_DWELL:
-            (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_DWELL, 0u, r->arg);
+            (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_DWELL, 0u, 0u, r->arg);
+            break;
+        case PK_REQ_SPINDLE:
+            m->spindle_q16 = (uint16_t)r->arg;
+            if (r->kind)
+                (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_SPINDLE, 0u,
+                                          (uint16_t)r->arg, m->cfg.pen_settle_ms);
             break;
         case PK_REQ_SMOOTH:
             (void)pk_stroke_set(&m->stroke, &r->smooth);
+            m->policy_applied = r->smooth;
             break;
         default:
             break;
@@ -436,9 +604,12 @@ bool pk_machine_reset(struct pk_machine *m)
     const struct pk_hal *h = m->hal;
     if (h->ops->timer_stop)
         (void)h->ops->timer_stop(h->ctx);
-    bool busy = (m->sg.busy);
-    bool interrupted = !alarmed(m) && (busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
-                                       || m->sg.prep_active || pk_stroke_is_open(&m->stroke));
+    /* Motion is cut (Grbl's ALARM 3) only if the axes may be moving: a
+     * completed feed hold (HOLD: stopped, queue kept) or a machine that has
+     * not started yet loses no position. */
+    enum pk_machine_state st0 = pk_machine_state(m);
+    bool interrupted = st0 == PK_STATE_HOLDING
+                       || (st0 == PK_STATE_RUN && (m->sg.busy || pk_sg_pending(&m->sg) > 0));
     /* leave every step line low (also after an alarm: a line whose lowering
      * failed must not swallow the next edge). If that write fails the line
      * may still be high, so the next rising edge the core counts might not
@@ -454,6 +625,8 @@ bool pk_machine_reset(struct pk_machine *m)
     m->inq_count = 0;
     m->inq_head = 0;
     m->hold_req = false;
+    m->acc_n = 0;
+    m->acc_policy = m->policy_applied;
     for (uint32_t i = 0; i < axes_of(m); i++) {
         m->target_steps[i] = m->sg.pos[i];
         m->target_um[i] = pk_steps_to_um(m->sg.pos[i], m->cfg.steps_per_mm_q16[i]);

@@ -79,7 +79,9 @@ enum pk_motion_status {
     PK_MOTION_EINVAL = -22, /**< bad configuration (init / set_smoothing) */
     PK_MOTION_EALARM = -23, /**< the machine is in ALARM: reset first; nothing changed */
     PK_MOTION_EHAL = -24,   /**< init: the HAL failed pk_hal_check() or a write failed */
-    PK_MOTION_EBUSY = -25   /**< configure: the machine is not idle; nothing changed */
+    PK_MOTION_EBUSY = -25,  /**< configure: the machine is not idle; nothing changed */
+    PK_MOTION_ETRAVEL = -26 /**< soft limits on: the move (or the smoothed path it
+                                 makes) would leave the travel box; nothing changed */
 };
 
 /** Machine state as reported to the user (maps onto Grbl's Idle/Run/Hold/Alarm). */
@@ -98,7 +100,8 @@ enum pk_alarm {
     PK_ALARM_DIR_WRITE = 2,   /**< pk_hal_dir_write returned non-zero */
     PK_ALARM_TOOL_WRITE = 3,  /**< pk_hal_tool_write returned non-zero */
     PK_ALARM_TIMER = 4,       /**< timer_start failed */
-    PK_ALARM_INTERNAL = 5     /**< an invariant failed (a bug): motion stopped */
+    PK_ALARM_INTERNAL = 5,    /**< an invariant failed (a bug): motion stopped */
+    PK_ALARM_SPINDLE_WRITE = 6 /**< pk_hal_spindle_write returned an error other than ENOSYS */
 };
 
 /** Kind of a linear move. */
@@ -137,6 +140,11 @@ struct pk_motion_cfg {
     uint32_t dir_setup_ticks;                 /**< direction set-up before a step edge, ticks */
     uint32_t pen_settle_ms;                   /**< dwell after each pen change, 0..60000 ms */
     uint8_t pen_down_level;                   /**< logical tool level meaning "pen down" (0/1) */
+    uint16_t lookahead_wait_ms;               /**< $207: how long a stroke waits for its next
+                                                   move once everything before it has been
+                                                   executed, before it is ended there
+                                                   (0 = PK_LOOKAHEAD_WAIT_MS_DEFAULT; see
+                                                   pk_machine_poll) */
     struct pk_smooth_cfg smooth;              /**< initial smoothing policy */
 };
 
@@ -146,6 +154,7 @@ struct pk_req {
     uint8_t kind;              /**< move kind / pen level */
     pk_um_t p[PK_AXES];        /**< move target, µm */
     uint32_t arg;              /**< feed µm/min, dwell ms */
+    pk_um_t chord_err_um;      /**< feed move: chord error already spent (0: a programmed vertex) */
     struct pk_smooth_cfg smooth;
 };
 
@@ -169,6 +178,18 @@ struct pk_machine {
     pk_um_s_t stroke_feed;               /**< feed of the open stroke, µm/s (MAIN) */
     uint32_t lines_planned;              /**< line blocks planned since init (MAIN) */
     bool hold_req;                       /**< feed hold requested (MAIN) */
+    uint16_t spindle_q16;                /**< spindle value for the next line blocks (MAIN) */
+    uint16_t ovr_feed_pct, ovr_rapid_pct;/**< overrides in force (MAIN) */
+    bool soft_on;                        /**< soft limits on (MAIN) */
+    struct pk_smooth_cfg acc_policy;     /**< policy the next accepted moves will get (MAIN) */
+    struct pk_smooth_cfg policy_applied; /**< policy of the stroke assembler now (MAIN) */
+    pk_um_t soft_lo[PK_AXES], soft_hi[PK_AXES];
+    /* acceptance-time bound of the smoothed path (DLG can leave the hull of its
+     * control points by at most max|second difference|/4 per axis) */
+    uint8_t acc_n;                       /**< feed targets in the run so far (0..2) */
+    pk_um_t acc_p[2][PK_AXES];           /**< the last two accepted positions */
+    pk_um_t acc_lo[PK_AXES], acc_hi[PK_AXES]; /**< box of the run's control points */
+    uint32_t acc_d2[PK_AXES];            /**< max |second difference| per axis in the run */
 };
 
 /**
@@ -203,8 +224,8 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
  * Request a straight move to an absolute target (µm, axes beyond cfg.axes
  * ignored). FEED moves join the current stroke (a different feed ends it);
  * RAPID moves end the stroke and run at the axes' max rates (feed ignored).
- * @param feed  µm/min (PK_MOVE_FEED: 1..PK_UM_MIN_MAX; clamped to the axes'
- *              max rates along the move's direction by the planner)
+ * @param feed  µm/min (PK_MOVE_FEED: PK_UM_MIN_MIN..PK_UM_MIN_MAX; clamped to
+ *              the axes' max rates along the move's direction by the planner)
  * @retval PK_MOTION_OK      queued
  * @retval PK_MOTION_EFULL   the request FIFO is full; nothing changed
  * @retval PK_MOTION_ERANGE  a coordinate beyond ±PK_UM_MAX or feed out of range
@@ -214,20 +235,74 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
 int pk_machine_move(struct pk_machine *m, const pk_um_t target[PK_AXES],
                     pk_um_min_t feed, enum pk_move_kind kind);
 
+/**
+ * A feed move to a chord vertex of a flattened curve (an arc, a G5/G5.1
+ * Bézier): the chords are within chord_err_um (0..10000) of the programmed
+ * curve, so in tolerance mode the smoother spends only tolerance - chord_err_um
+ * at the vertices next to this move, and the executed path stays within the
+ * tolerance of the programmed curve. Otherwise as pk_machine_move(FEED).
+ * @retval as pk_machine_move; PK_MOTION_ERANGE also for chord_err_um > 10000
+ * Calling context: MAIN.
+ */
+int pk_machine_move_chord(struct pk_machine *m, const pk_um_t target[PK_AXES],
+                          pk_um_min_t feed, pk_um_t chord_err_um);
+
 /** Request pen down (down = true) or up: ends the stroke, brings the machine to
  *  a stop, switches the tool output (cfg.pen_down_level) and dwells
  *  cfg.pen_settle_ms. Returns as pk_machine_move. Calling context: MAIN. */
 int pk_machine_pen(struct pk_machine *m, bool down);
 
+/** Smallest feed accepted (µm/min): 1 mm/min. Slower feeds are refused with
+ *  PK_MOTION_ERANGE rather than run at a rounded speed. */
+#define PK_UM_MIN_MIN 1000u
+/** Default of pk_motion_cfg.lookahead_wait_ms. */
+#define PK_LOOKAHEAD_WAIT_MS_DEFAULT 100u
+
 /** Request a dwell (G4) of ms milliseconds (0..PK_DWELL_MS_MAX) after a full
  *  stop. Returns as pk_machine_move. Calling context: MAIN. */
 int pk_machine_dwell(struct pk_machine *m, uint32_t ms);
-#define PK_DWELL_MS_MAX 3600000u
+#define PK_DWELL_MS_MAX 86400000u /**< 24 h; longer dwells are refused (ERANGE) */
 
 /** Request a new smoothing policy (G61 / G64 P<T>); ends the stroke; applies
  *  to the following moves. PK_MOTION_EINVAL if *s is invalid (nothing changed),
  *  else returns as pk_machine_move. Calling context: MAIN. */
 int pk_machine_set_smoothing(struct pk_machine *m, const struct pk_smooth_cfg *s);
+
+/**
+ * Spindle / laser / servo output (HAL spindle_write, value in Q0.16 of full
+ * scale, 0 = off). sync = true (M3/M4/M5 in normal mode, as Grbl): ends the
+ * stroke, brings the machine to a stop, sets the output, then dwells
+ * cfg.pen_settle_ms. sync = false (Grbl laser mode): the value applies from the
+ * start of the next move without stopping (each planned block carries it).
+ * Returns as pk_machine_move. A HAL without spindle_write: the request is
+ * accepted and the write's PK_HAL_ENOSYS is ignored (the core has nothing to
+ * drive), so a board decides whether it has the output. Calling context: MAIN.
+ */
+int pk_machine_spindle(struct pk_machine *m, uint16_t value_q16, bool sync);
+
+/**
+ * Feed and rapid overrides (Grbl 1.1 realtime 0x90-0x9D): feed_pct 10..200,
+ * rapid_pct 1..100 (Grbl uses 25/50/100). Applies at once to every planned
+ * block and every later one (queued blocks are replanned; the executing block
+ * changes speed within the acceleration limits, from the next chunk on).
+ * @retval PK_MOTION_OK / PK_MOTION_ERANGE (nothing changed). MAIN.
+ */
+int pk_machine_set_override(struct pk_machine *m, uint16_t feed_pct, uint16_t rapid_pct);
+
+/**
+ * Soft limits (Grbl $20): when on, every later move is checked before it is
+ * queued: its target, and for smoothing schemes that can leave the hull of
+ * their control points (DLG) a bound on how far the smoothed path can
+ * overshoot, must lie inside [lo[i], hi[i]] µm on every axis, else the move
+ * is refused with PK_MOTION_ETRAVEL (nothing changed). B-spline smoothing
+ * (and the tolerance mode) stays inside the convex hull of the programmed
+ * points by construction, so checking the targets is enough for them. The
+ * kernel's own range (±PK_UM_MAX) is enforced the same way whether soft limits
+ * are on or not. lo/hi may be NULL when on = false. MAIN, any state.
+ * @retval PK_MOTION_OK / PK_MOTION_ERANGE (lo > hi, or beyond ±PK_UM_MAX)
+ */
+int pk_machine_set_soft_limits(struct pk_machine *m, bool on, const pk_um_t lo[PK_AXES],
+                               const pk_um_t hi[PK_AXES]);
 
 /** Request end of program (M2/M30): ends the stroke so that everything queued
  *  executes and the last move stops. Returns as pk_machine_move. MAIN. */

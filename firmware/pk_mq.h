@@ -25,7 +25,8 @@
 enum pk_block_type {
     PK_BLK_LINE = 0,  /**< straight move */
     PK_BLK_PEN = 1,   /**< set the tool output, then wait (stop point) */
-    PK_BLK_DWELL = 2  /**< wait (stop point) */
+    PK_BLK_DWELL = 2, /**< wait (stop point) */
+    PK_BLK_SPINDLE = 3 /**< set the spindle output (wait_ms after), stop point */
 };
 
 /** One planned block. Geometry is fixed at push; the planner owns v2_entry/v2_exit. */
@@ -33,14 +34,18 @@ struct pk_block {
     uint8_t type;              /**< enum pk_block_type */
     uint8_t dir_mask;          /**< LINE: logical direction per axis, 1 = positive */
     uint8_t tool;              /**< PEN: logical tool level */
-    uint8_t pad_;
+    uint8_t rapid;             /**< LINE: a rapid (rapid override applies, not feed) */
+    uint16_t spindle;          /**< LINE: spindle value while it runs; SPINDLE: the value */
     uint32_t steps[PK_AXES];   /**< LINE: |steps| per axis */
     uint32_t events;           /**< LINE: max(steps) (Bresenham events, >= 1) */
     uint32_t len_q8;           /**< LINE: path length, µm Q8 (< 2^31) */
     pk_q30_t u[PK_AXES];       /**< LINE: unit direction, Q1.30 */
     pk_um_s2_t accel;          /**< LINE: accel along the move, axis-limited, µm/s^2 */
-    pk_v2_q4_t v2_nom;         /**< LINE: nominal speed^2 (feed, axis-limited) */
-    pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 (junction and both nominals) */
+    pk_v2_q4_t v2_nom;         /**< LINE: nominal speed^2 (feed x override, axis-limited) */
+    pk_um_s_t v_req;           /**< LINE: requested speed before override (0 = max) */
+    pk_um_s_t v_lim;           /**< LINE: the axes' limit along the move */
+    pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 from the junction geometry
+                                    (the replan also caps it by both nominals) */
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
     uint32_t wait_ms;          /**< PEN/DWELL: wait */
 };

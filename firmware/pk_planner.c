@@ -41,6 +41,32 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim)
 {
     memset(p, 0, sizeof *p);
     p->lim = *lim;
+    p->ovr_feed_pct = 100u;
+    p->ovr_rapid_pct = 100u;
+}
+
+/* Nominal speed^2 of a line block under the overrides in force. */
+static pk_v2_q4_t nominal_v2(const struct pk_planner *p, const struct pk_block *b)
+{
+    uint64_t v = b->rapid ? (uint64_t)b->v_lim * p->ovr_rapid_pct / 100u
+                          : (uint64_t)b->v_req * p->ovr_feed_pct / 100u;
+    if (v > b->v_lim)
+        v = b->v_lim;
+    if (v == 0)
+        v = 1;
+    return v2_of((pk_um_s_t)v);
+}
+
+void pk_planner_set_override(struct pk_planner *p, struct pk_mq *q, uint16_t feed_pct,
+                             uint16_t rapid_pct)
+{
+    p->ovr_feed_pct = feed_pct;
+    p->ovr_rapid_pct = rapid_pct;
+    for (uint32_t k = 0; k < pk_mq_count(q); k++) {
+        struct pk_block *b = pk_mq_at(q, k);
+        if (b->type == PK_BLK_LINE)
+            b->v2_nom = nominal_v2(p, b);
+    }
 }
 
 void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
@@ -102,7 +128,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_u
     b->type = PK_BLK_LINE;
     b->events = events;
     b->len_q8 = len_q8;
-    uint64_t v_nom = feed ? feed : PK_UM_S_MAX;
+    uint64_t v_nom = PK_UM_S_MAX;
     uint64_t acc = PK_UM_S2_MAX;
     for (unsigned i = 0; i < axes; i++) {
         int64_t d = d_um[i];
@@ -126,33 +152,46 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_u
     if (acc == 0)
         acc = 1;
     b->accel = (pk_um_s2_t)acc;
-    b->v2_nom = v2_of((pk_um_s_t)v_nom);
+    b->rapid = feed == 0u;
+    b->v_lim = (pk_um_s_t)v_nom;
+    b->v_req = feed;
+    b->v2_nom = nominal_v2(p, b);
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
         pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
         vj = pk_planner_junction_v2(p->prev_u, b->u, axes, a, p->lim.junction_dev_um);
-        vj = min64(vj, min64(b->v2_nom, p->prev_v2_nom));
     }
     b->v2_junction = vj;
     b->v2_exit = 0;
     p->have_prev = true;
     memcpy(p->prev_u, b->u, sizeof p->prev_u);
     p->prev_accel = b->accel;
-    p->prev_v2_nom = b->v2_nom;
     return 1;
 }
 
 int pk_planner_add_stop(struct pk_planner *p, struct pk_mq *q, uint8_t type, uint8_t tool,
-                        uint32_t wait_ms)
+                        uint16_t value, uint32_t wait_ms)
 {
     struct pk_block *b = pk_mq_push(q);
     if (b == NULL)
         return -1;
     b->type = type;
     b->tool = tool;
+    b->spindle = value;
     b->wait_ms = wait_ms;
     p->have_prev = false;
     return 1;
+}
+
+/* Highest entry speed^2 of line block k (k > 0): the junction limit, and
+ * neither neighbour's nominal speed (both may change with the overrides). */
+static pk_v2_q4_t entry_ceiling(struct pk_mq *q, uint32_t k)
+{
+    const struct pk_block *b = pk_mq_at(q, k), *a = pk_mq_at(q, k - 1u);
+    pk_v2_q4_t c = min64(b->v2_junction, b->v2_nom);
+    if (a->type == PK_BLK_LINE)
+        c = min64(c, a->v2_nom);
+    return c;
 }
 
 void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8)
@@ -174,7 +213,7 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         b->v2_exit = next_entry;
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
         pk_v2_q4_t entry = b->v2_exit + two_a_s(b->accel, len);
-        pk_v2_q4_t ceil = (k == 0) ? v2_now : b->v2_junction;
+        pk_v2_q4_t ceil = (k == 0) ? v2_now : entry_ceiling(q, k);
         next_entry = min64(entry, ceil);
     }
     /* Forward pass: from the current speed, acceleration caps each exit. */
@@ -185,8 +224,8 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
             entry = 0;
             continue;
         }
-        if (k > 0 && entry > b->v2_junction)
-            entry = b->v2_junction;
+        if (k > 0 && entry > entry_ceiling(q, k))
+            entry = entry_ceiling(q, k);
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
         pk_v2_q4_t reach = entry + two_a_s(b->accel, len);
         pk_v2_q4_t ex = min64(b->v2_exit, min64(reach, b->v2_nom));

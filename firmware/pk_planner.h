@@ -38,10 +38,10 @@ struct pk_planner_limits {
 
 struct pk_planner {
     struct pk_planner_limits lim;
+    uint16_t ovr_feed_pct, ovr_rapid_pct; /**< overrides (100 = none) */
     bool have_prev;               /**< the newest queued block is a LINE to join */
     pk_q30_t prev_u[PK_AXES];     /**< its unit vector */
     pk_um_s2_t prev_accel;
-    pk_v2_q4_t prev_v2_nom;
 };
 
 /** Initialise with limits (copied). */
@@ -54,7 +54,8 @@ void pk_planner_break(struct pk_planner *p);
  * Append a straight move to q.
  * @param d_um     displacement in µm (requested geometry; axes >= lim.axes ignored)
  * @param d_steps  displacement in steps (difference of rounded absolute positions)
- * @param feed     requested speed µm/s (0 = as fast as the axes allow)
+ * @param feed     requested speed µm/s (0 = as fast as the axes allow: a rapid,
+ *                 scaled by the rapid override; otherwise by the feed override)
  * @retval 1  a block was appended
  * @retval 0  the move has no steps (nothing appended; the geometry still counts
  *            as "previous" only if it had length)
@@ -64,10 +65,17 @@ void pk_planner_break(struct pk_planner *p);
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_um[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], pk_um_s_t feed);
 
-/** Append a stop block (PK_BLK_PEN with tool level, or PK_BLK_DWELL) of wait_ms.
+/** Set the overrides (feed 10..200 %, rapid 1..100 %, validated by the caller)
+ *  and recompute the nominal speed of every queued line block; the caller
+ *  replans. */
+void pk_planner_set_override(struct pk_planner *p, struct pk_mq *q, uint16_t feed_pct,
+                             uint16_t rapid_pct);
+
+/** Append a stop block (PK_BLK_PEN with tool level, PK_BLK_SPINDLE with value
+ *  in `value`, or PK_BLK_DWELL) of wait_ms.
  *  @retval 1 appended, -1 full. Breaks the junction chain. */
 int pk_planner_add_stop(struct pk_planner *p, struct pk_mq *q, uint8_t type, uint8_t tool,
-                        uint32_t wait_ms);
+                        uint16_t value, uint32_t wait_ms);
 
 /**
  * Reverse + forward pass over every queued block.

@@ -46,9 +46,16 @@ static pk_v2_q4_t prof_v2(const struct profile *p, uint32_t s)
         pk_v2_q4_t d = two_a(p->a, ds);
         return d >= p->v2_0 ? 0 : p->v2_0 - d;
     }
-    pk_v2_q4_t v = p->v2_0 + two_a(p->a, ds);
-    if (p->v2_nom < v)
-        v = p->v2_nom > p->v2_0 ? p->v2_nom : p->v2_0;
+    pk_v2_q4_t v;
+    if (p->v2_0 > p->v2_nom) {
+        /* above the nominal (an override lowered it): decelerate down to it */
+        pk_v2_q4_t d = two_a(p->a, ds);
+        v = d >= p->v2_0 - p->v2_nom ? p->v2_nom : p->v2_0 - d;
+    } else {
+        v = p->v2_0 + two_a(p->a, ds);
+        if (p->v2_nom < v)
+            v = p->v2_nom;
+    }
     pk_v2_q4_t dec = p->v2_exit + two_a(p->a, (uint64_t)(p->L - s));
     return dec < v ? dec : v;
 }
@@ -63,8 +70,10 @@ static unsigned prof_breaks(const struct profile *p, uint32_t bp[2])
             bp[n++] = (uint32_t)st;
         return n;
     }
-    /* accel line meets the nominal, decel line leaves it */
-    uint64_t s1 = p->s0 + (p->v2_nom > p->v2_0 ? ds_for(p->a, p->v2_nom - p->v2_0) : 0);
+    /* accel (or, above the nominal, decel) line meets the nominal, decel line leaves it */
+    uint64_t s1 = p->s0 + (p->v2_nom > p->v2_0   ? ds_for(p->a, p->v2_nom - p->v2_0)
+                           : p->v2_0 > p->v2_nom ? ds_for(p->a, p->v2_0 - p->v2_nom)
+                                                 : 0);
     uint64_t dd = p->v2_nom > p->v2_exit ? ds_for(p->a, p->v2_nom - p->v2_exit) : 0;
     uint64_t s2 = dd < (uint64_t)p->L - p->s0 ? p->L - dd : p->s0;
     if (s1 <= s2) {
@@ -72,6 +81,9 @@ static unsigned prof_breaks(const struct profile *p, uint32_t bp[2])
             bp[n++] = (uint32_t)s1;
         if (s2 > s1 && s2 < p->L)
             bp[n++] = (uint32_t)s2;
+    } else if (p->v2_0 > p->v2_nom) {
+        /* still above the nominal where the final deceleration starts: both
+         * lines have slope -2a, so the lower one rules throughout: no corner */
     } else {
         /* triangle: v2_0 + 2a(x - s0) = v2_exit + 2a(L - x) */
         int64_t num = (int64_t)ds_for(p->a, p->v2_exit) - (int64_t)ds_for(p->a, p->v2_0)
@@ -299,6 +311,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_ch
     if (e == 0) {
         c->first = 1;
         c->dir_mask = b->dir_mask;
+        c->spindle = b->spindle;
         memcpy(c->steps, b->steps, sizeof c->steps);
         c->events = N;
     }
@@ -329,8 +342,11 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
                 sg->held = true; /* a stop block: we are at rest here */
                 return added;
             }
-            c->kind = b->type == PK_BLK_PEN ? PK_SGC_TOOL : PK_SGC_WAIT;
+            c->kind = b->type == PK_BLK_PEN       ? PK_SGC_TOOL
+                      : b->type == PK_BLK_SPINDLE ? PK_SGC_SPINDLE
+                                                  : PK_SGC_WAIT;
             c->tool = b->tool;
+            c->spindle = b->spindle;
             c->wait_ticks = (uint64_t)b->wait_ms * sg->tick_hz / 1000u;
             ring_commit(sg);
             pk_mq_pop(q);
@@ -428,6 +444,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         if (c->kind != PK_SGC_STEPS) {
             if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->tool) != 0)
                 return isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+            if (c->kind == PK_SGC_SPINDLE) {
+                int r = pk_hal_spindle_write(hal, c->spindle);
+                if (r != 0 && r != PK_HAL_ENOSYS)
+                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                sg->spindle_cur = c->spindle;
+            }
             uint64_t until = now + c->wait_ticks;
             sg->v_um_s = 0u;
             PK_BARRIER();
@@ -436,6 +458,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return until > now ? until : now + 1u;
         }
         if (c->first) {
+            if (c->spindle != sg->spindle_cur) {
+                int r = pk_hal_spindle_write(hal, c->spindle);
+                if (r != 0 && r != PK_HAL_ENOSYS)
+                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                sg->spindle_cur = c->spindle;
+            }
             for (unsigned i = 0; i < sg->axes; i++) {
                 sg->steps[i] = c->steps[i];
                 sg->acc[i] = -(int32_t)(c->events >> 1);

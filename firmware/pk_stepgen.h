@@ -46,7 +46,7 @@
 #define PK_SG_MAX_EVENTS 64
 #endif
 
-enum pk_sg_chunk_kind { PK_SGC_STEPS = 0, PK_SGC_TOOL = 1, PK_SGC_WAIT = 2 };
+enum pk_sg_chunk_kind { PK_SGC_STEPS = 0, PK_SGC_TOOL = 1, PK_SGC_WAIT = 2, PK_SGC_SPINDLE = 3 };
 
 /** One chunk (private). */
 struct pk_sg_chunk {
@@ -54,6 +54,7 @@ struct pk_sg_chunk {
     uint8_t first;             /**< STEPS: first chunk of a block: load steps/dir */
     uint8_t dir_mask;          /**< STEPS first: logical directions */
     uint8_t tool;              /**< TOOL: logical level */
+    uint16_t spindle;          /**< STEPS first / SPINDLE: spindle value (Q0.16) */
     uint32_t n;                /**< STEPS: events in the chunk (>= 1) */
     int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
     uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
@@ -89,6 +90,7 @@ struct pk_stepgen {
     /* ---- timer-side state (ISR only, except as noted) ---- */
     uint8_t phase;             /**< enum pk_sg_phase */
     uint8_t dir_cur;           /**< direction lines as last written (logical) */
+    uint16_t spindle_cur;      /**< spindle value as last written */
     uint8_t mask_due;          /**< axes to step at the pending edge */
     uint32_t left;             /**< events left in the current chunk */
     int64_t I, A, B;           /**< recurrence state, ticks Q16 */

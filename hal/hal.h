@@ -54,6 +54,12 @@ struct pk_hal_ops {
     int (*enable_write)(void *ctx, uint32_t mask, uint32_t levels);
     /** [ISR] Pen / tool output (raw level). */
     int (*tool_write)(void *ctx, uint32_t level);
+    /** [ISR] Optional: spindle / laser PWM / pen-servo output. value is the
+     *  fraction of full scale in Q0.16 (0 = off, or the servo's "up" end,
+     *  65535 = full scale); the board maps it to a PWM duty cycle or to a servo
+     *  pulse width between its configured limits. Must be bounded (register
+     *  writes only). NULL: the board has no such output. */
+    int (*spindle_write)(void *ctx, uint16_t value_q16);
 
     /** [MAIN] Start the step timer: cb(arg, now) is first called at tick
      *  first_tick; then at whatever tick each call returns. */
@@ -121,6 +127,12 @@ static inline int pk_hal_tool_write(const struct pk_hal *h, uint32_t logical)
     if (h->ops->tool_write == NULL)
         return PK_HAL_ENOSYS;
     return h->ops->tool_write(h->ctx, (logical ^ h->tool_invert) & 1u);
+}
+static inline int pk_hal_spindle_write(const struct pk_hal *h, uint16_t value_q16)
+{
+    if (h->ops->spindle_write == NULL)
+        return PK_HAL_ENOSYS;
+    return h->ops->spindle_write(h->ctx, value_q16);
 }
 static inline uint32_t pk_hal_irq_save(const struct pk_hal *h)
 {

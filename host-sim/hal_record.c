@@ -36,6 +36,7 @@ static int step_w(void *c, uint32_t m, uint32_t l) { return wr(c, PK_REC_STEP, m
 static int dir_w(void *c, uint32_t m, uint32_t l) { return wr(c, PK_REC_DIR, m, l); }
 static int en_w(void *c, uint32_t m, uint32_t l) { return wr(c, PK_REC_ENABLE, m, l); }
 static int tool_w(void *c, uint32_t l) { return wr(c, PK_REC_TOOL, 1u, l); }
+static int spindle_w(void *c, uint16_t v) { return wr(c, PK_REC_SPINDLE, 0xffffu, v); }
 
 static int t_start(void *c, pk_hal_timer_cb cb, void *arg, uint64_t first)
 {
@@ -63,6 +64,7 @@ static const struct pk_hal_ops rec_ops = {
     .dir_write = dir_w,
     .enable_write = en_w,
     .tool_write = tool_w,
+    .spindle_write = spindle_w,
     .timer_start = t_start,
     .timer_stop = t_stop,
     .clock_ticks = clk,

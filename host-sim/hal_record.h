@@ -16,7 +16,7 @@
 #include <stdint.h>
 #include "hal.h"
 
-enum pk_rec_kind { PK_REC_STEP = 0, PK_REC_DIR, PK_REC_ENABLE, PK_REC_TOOL, PK_REC_KINDS };
+enum pk_rec_kind { PK_REC_STEP = 0, PK_REC_DIR, PK_REC_ENABLE, PK_REC_TOOL, PK_REC_SPINDLE, PK_REC_KINDS };
 
 struct pk_rec_event {
     uint64_t tick;

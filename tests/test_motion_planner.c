@@ -90,7 +90,7 @@ static void test_replanned_speeds_respect_every_constraint_on_random_polylines(v
             st[0] = (pk_steps_t)(d[0] * 80 / 1000);
             st[1] = (pk_steps_t)(d[1] * 80 / 1000);
             if (xr() % 17 == 0)
-                (void)pk_planner_add_stop(&p, &q, PK_BLK_DWELL, 0, 0);
+                (void)pk_planner_add_stop(&p, &q, PK_BLK_DWELL, 0, 0, 0);
             else
                 (void)pk_planner_add_line(&p, &q, d, st, (pk_um_s_t)(1000 + xr() % 120000));
             pos[0] += d[0];
