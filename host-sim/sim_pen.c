@@ -18,10 +18,12 @@ int pk_pen_prog_drawn(const struct pk_pen_cfg *c, int tool_on, double s_power, i
     }
 }
 
-int pk_pen_exec_drawn(const struct pk_pen_cfg *c, int tool_line, double z_um)
+int pk_pen_exec_drawn(const struct pk_pen_cfg *c, int tool_line, uint16_t spindle_q16, double z_um)
 {
     if (c->mode == PK_PEN_Z)
         return z_um <= c->z_down_um;
+    if (c->mode == PK_PEN_LASER)
+        return spindle_q16 > 0u;
     return tool_line != 0;
 }
 

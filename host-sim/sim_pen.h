@@ -6,10 +6,10 @@
  * moves with M3/M4 and a power S > 0; G0 never fires) (host only).
  *
  * Programmed state: from the program (M3/M5, S, G0/G1, Z). Executed state:
- * from the pins (the decoded tool line) and, in Z mode, the decoded Z
- * position. A laser's power is not on any pin plotkin drives (the tool line
- * is on/off), so the executed state of a laser is its tool line: if the
- * firmware leaves it on during a G0, the drawing shows the burn it would make.
+ * from the outputs: the decoded tool line, in Z mode the decoded Z position,
+ * for a laser the spindle / laser output (pk_hal_spindle_write: fires while
+ * its value is above 0), which is where a laser is wired; if the firmware
+ * leaves it on during a G0, the drawing shows the burn it would make.
  */
 #ifndef PLOTKIN_SIM_PEN_H
 #define PLOTKIN_SIM_PEN_H
@@ -35,8 +35,9 @@ struct pk_pen_cfg {
 int pk_pen_prog_drawn(const struct pk_pen_cfg *c, int tool_on, double s_power, int rapid, double z0_um,
                       double z1_um);
 
-/** Is the executed path drawing? tool_line: decoded tool line (1 on); z_um: decoded Z. */
-int pk_pen_exec_drawn(const struct pk_pen_cfg *c, int tool_line, double z_um);
+/** Is the executed path drawing? tool_line: decoded tool line (1 on);
+ *  spindle_q16: the spindle / laser output now; z_um: decoded Z. */
+int pk_pen_exec_drawn(const struct pk_pen_cfg *c, int tool_line, uint16_t spindle_q16, double z_um);
 
 /** "pen (M3/M5)", "pen at Z <= h", "laser ($32)". */
 const char *pk_pen_mode_name(enum pk_pen_mode m);

@@ -15,6 +15,7 @@ const char *pk_sim_alarm_name(int a)
     case PK_ALARM_TOOL_WRITE: return "pen write failed";
     case PK_ALARM_TIMER: return "timer start failed";
     case PK_ALARM_INTERNAL: return "internal error";
+    case PK_ALARM_SPINDLE_WRITE: return "spindle write failed";
     default: return "none";
     }
 }

@@ -2,6 +2,7 @@
  * sim_run.c — one complete simulated run (see sim_run.h).
  */
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include "sim_run.h"
@@ -54,7 +55,7 @@ static void flush_tick(struct pk_sim_result *r)
     if (r->ref_on)
         (void)pk_path_measure(&r->ref, pt, r->tick_t, NULL, NULL);
     if (r->opts.svg != NULL)
-        pk_svg_exec_point(r->opts.svg, pt, pk_pen_exec_drawn(&r->pen, r->tick_pen, pt[2]));
+        pk_svg_exec_point(r->opts.svg, pt, pk_pen_exec_drawn(&r->pen, r->tick_pen, r->spindle_q16, pt[2]));
 }
 
 /* Every decoded step; the steps of one tick are one point of the path. */
@@ -71,6 +72,20 @@ static void on_step(void *arg, const struct pk_step_event *ev)
     r->tick_n++;
     r->tick_pen = ev->pen;
     r->last_step_tick = ev->t;
+}
+
+/*
+ * The spindle / laser output (pk_hal_spindle_write) of the simulated board:
+ * recorded, so that a laser's executed path shows where it fired. The
+ * gpiod backend has no such output; its ctx is the struct pk_gpiod inside
+ * our struct pk_sim_hw, which leads back to the run.
+ */
+static int sim_spindle_write(void *ctx, uint16_t value_q16)
+{
+    struct pk_sim_result *r = (struct pk_sim_result *)(void *)((char *)ctx - offsetof(struct pk_sim_result, hw.gpio));
+    r->spindle_q16 = value_q16;
+    r->spindle_writes++;
+    return 0;
 }
 
 /* Every pin edge: decoder, and the CSV file if asked. */
@@ -177,6 +192,11 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
                               sizeof r->err) != 0) {
         r->setup_failed = 1;
         return -1;
+    }
+    if (r->hw.hal.ctx == &r->hw.gpio && r->hw.hal.ops->spindle_write == NULL) {
+        r->ops = *r->hw.hal.ops;
+        r->ops.spindle_write = sim_spindle_write;
+        r->hw.hal.ops = &r->ops;
     }
     int rc2 = pk_machine_init(&r->m, &r->mcfg, &r->hw.hal);
     if (rc2 != PK_MOTION_OK) {

@@ -87,6 +87,9 @@ struct pk_sim_result {
     int8_t tick_dir[PK_HAL_MAX_AXES * 2];
     uint8_t tick_pen;
     uint64_t last_step_tick;
+    struct pk_hal_ops ops;          /* the firmware's HAL ops, with spindle_write recorded */
+    uint16_t spindle_q16;           /**< spindle / laser output now (0 = off) */
+    uint64_t spindle_writes;        /**< spindle writes the firmware made */
     int ref_have_last;
     double ref_last[3];
     int setup_failed;               /**< 1: hardware/machine setup failed (see err) */
