@@ -29,19 +29,19 @@ static void emit_vertex(struct pk_svg *s, struct pk_svg_stream *st, const double
 {
     if (!st->open) {
         /* the dash pattern is scaled by the style sheet; the attribute marks a travel */
-        fprintf(st->f, "<path class=\"%s\"%s d=\"M%.3f %.3f", elem_class(st, s, st->pen),
+        fprintf(st->f[st->pen > 0], "<path class=\"%s\"%s d=\"M%.3f %.3f", elem_class(st, s, st->pen),
                 st->pen ? "" : " stroke-dasharray=\"1 1\"", q[0] / 1000.0 + 0.0, -q[1] / 1000.0 + 0.0);
         st->open = 1;
         st->in_elem = 1;
     } else {
-        fprintf(st->f, " L%.3f %.3f", q[0] / 1000.0 + 0.0, -q[1] / 1000.0 + 0.0);
+        fprintf(st->f[st->pen > 0], " L%.3f %.3f", q[0] / 1000.0 + 0.0, -q[1] / 1000.0 + 0.0);
         st->in_elem++;
     }
     st->points_out++;
     if (st->in_elem >= ELEM_POINTS) {
-        fputs("\"/>\n", st->f);
+        fputs("\"/>\n", st->f[st->pen > 0]);
         st->open = 0;
-        fprintf(st->f, "<path class=\"%s\"%s d=\"M%.3f %.3f", elem_class(st, s, st->pen),
+        fprintf(st->f[st->pen > 0], "<path class=\"%s\"%s d=\"M%.3f %.3f", elem_class(st, s, st->pen),
                 st->pen ? "" : " stroke-dasharray=\"1 1\"", q[0] / 1000.0 + 0.0, -q[1] / 1000.0 + 0.0);
         st->open = 1;
         st->in_elem = 1;
@@ -136,7 +136,7 @@ static void simplify_add(struct pk_svg *s, struct pk_svg_stream *st, const doubl
 static void close_elem(struct pk_svg_stream *st)
 {
     if (st->open)
-        fputs("\"/>\n", st->f);
+        fputs("\"/>\n", st->f[st->pen > 0]);
     st->open = 0;
 }
 
@@ -186,9 +186,13 @@ int pk_svg_open(struct pk_svg *s, double eps_um)
     stream_init(&s->exec, s->eps_um);
     s->lo[0] = s->lo[1] = INFINITY;
     s->hi[0] = s->hi[1] = -INFINITY;
-    s->prog.f = tmpfile();
-    s->exec.f = tmpfile();
-    if (s->prog.f == NULL || s->exec.f == NULL) {
+    int ok = 1;
+    for (int i = 0; i < 2; i++) {
+        s->prog.f[i] = tmpfile();
+        s->exec.f[i] = tmpfile();
+        ok = ok && s->prog.f[i] != NULL && s->exec.f[i] != NULL;
+    }
+    if (!ok) {
         pk_svg_discard(s);
         return -1;
     }
@@ -253,7 +257,7 @@ int pk_svg_close(struct pk_svg *s, const char *path, const char *title)
 {
     finish_stream(s, &s->prog);
     finish_stream(s, &s->exec);
-    if (ferror(s->prog.f) || ferror(s->exec.f)) {
+    if (ferror(s->prog.f[0]) || ferror(s->prog.f[1]) || ferror(s->exec.f[0]) || ferror(s->exec.f[1])) {
         pk_svg_discard(s);
         errno = EIO;
         return -1;
@@ -282,21 +286,25 @@ int pk_svg_close(struct pk_svg *s, const char *path, const char *title)
             s->eps_um / 1000.0);
     fprintf(f, "<style>\npath { fill: none; stroke-linecap: round; stroke-linejoin: round; }\n"
                ".ps { stroke: #8ab4f8; stroke-width: %.4f; }\n"
-               ".pt { stroke: #c6dafc; stroke-width: %.4f; stroke-dasharray: %.4f %.4f; }\n"
+               ".pt { stroke: #aecbfa; stroke-width: %.4f; stroke-dasharray: %.4f %.4f; }\n"
                ".es { stroke: #202124; stroke-width: %.4f; }\n"
                ".et { stroke: #9aa0a6; stroke-width: %.4f; stroke-dasharray: %.4f %.4f; }\n</style>\n",
-            3 * sw, sw, 4 * sw, 3 * sw, sw, sw, sw, 1.5 * sw);
+            3 * sw, 2 * sw, 4 * sw, 3 * sw, sw, sw, sw, 1.5 * sw);
     fprintf(f, "<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n", x0 - m,
             -(y1 + m), w, h + 3 * sw * 6);
     fputs("<g id=\"programmed\">\n", f);
-    int rc = copy_body(f, s->prog.f);
+    int rc = copy_body(f, s->prog.f[0]);
+    if (rc == 0)
+        rc = copy_body(f, s->prog.f[1]);
     fputs("</g>\n<g id=\"executed\">\n", f);
     if (rc == 0)
-        rc = copy_body(f, s->exec.f);
+        rc = copy_body(f, s->exec.f[0]);
+    if (rc == 0)
+        rc = copy_body(f, s->exec.f[1]);
     fputs("</g>\n", f);
     fprintf(f, "<text x=\"%.3f\" y=\"%.3f\" font-family=\"sans-serif\" font-size=\"%.3f\" fill=\"#5f6368\">"
-               "%s: programmed (light, travels dashed) vs executed from decoded steps (dark)</text>\n",
-            x0 - m + sw * 4, -(y0 - m) + sw * 12, sw * 9, title);
+               "%s: programmed (light) vs executed from decoded steps (dark); travels dashed</text>\n",
+            x0 - m + sw * 4, -(y0 - m) + sw * 12, sw * 8, title);
     fputs("</svg>\n", f);
     int e = 0;
     if (rc != 0 || ferror(f))
@@ -313,9 +321,11 @@ int pk_svg_close(struct pk_svg *s, const char *path, const char *title)
 
 void pk_svg_discard(struct pk_svg *s)
 {
-    if (s->prog.f != NULL)
-        fclose(s->prog.f);
-    if (s->exec.f != NULL)
-        fclose(s->exec.f);
-    s->prog.f = s->exec.f = NULL;
+    for (int i = 0; i < 2; i++) {
+        if (s->prog.f[i] != NULL)
+            fclose(s->prog.f[i]);
+        if (s->exec.f[i] != NULL)
+            fclose(s->exec.f[i]);
+        s->prog.f[i] = s->exec.f[i] = NULL;
+    }
 }

@@ -11,9 +11,10 @@
  * dropped only if it lies within the bound of the segment that replaces it,
  * and the kept points are points of the stream, so the polyline drawn is
  * within eps of the path it shows, both ways (Hausdorff distance <= eps).
- * Memory: O(1) per stream; the two streams go to temporary files and the
- * SVG (whose viewBox needs the bounding box, known only at the end) is put
- * together by pk_svg_close.
+ * Memory: O(1) per stream; the streams go to temporary files (travels and
+ * strokes apart, so that travels are drawn underneath) and the SVG (whose
+ * viewBox needs the bounding box, known only at the end) is put together by
+ * pk_svg_close.
  */
 #ifndef PLOTKIN_SIM_SVG_H
 #define PLOTKIN_SIM_SVG_H
@@ -24,7 +25,7 @@
 
 /** One thinned polyline stream into a temporary file. (private members) */
 struct pk_svg_stream {
-    FILE *f;
+    FILE *f[2];              /* travels, strokes (travels are drawn underneath) */
     double eps;
     int open;                /* a <path> element is open */
     int pen;                 /* its pen state */

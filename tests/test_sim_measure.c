@@ -206,6 +206,32 @@ static void test_the_programmed_path_is_held_in_a_fixed_window(void)
     free(buf);
 }
 
+/* The second reference (the hook for the smoothed curve): fed the programmed
+ * polyline itself, it reads what the programmed path reads. */
+static void test_a_second_reference_path_is_measured_the_same_way(void)
+{
+    static struct pk_sim_cfg cfg;
+    static struct pk_sim_result r;
+    struct pk_sim_opts o;
+    pk_sim_cfg_default(&cfg);
+    cfg.smooth_mode = PK_SMOOTH_OFF;
+    cfg.force_smoothing = 1;
+    const char *prog = "G21 G90\nG1 X10 Y3 F3000\nG1 X20 Y17\nG1 X5 Y25\nM2\n";
+    const double pts[4][3] = { { 0, 0, 0 }, { 10000, 3000, 0 }, { 20000, 17000, 0 }, { 5000, 25000, 0 } };
+    opts_for(&o, "measure-ref", &cfg, prog);
+    TH_ASSERT_EQ(pk_sim_start(&o, &r), 0);
+    for (int i = 0; i < 4; i++)
+        TH_ASSERT_EQ(pk_sim_ref_point(&r, pts[i], i == 0, (uint32_t)i + 1u), 0);
+    while (!pk_sim_advance(&r, 0))
+        ;
+    TH_ASSERT_EQ(pk_sim_finish(&r), 0);
+    TH_EXPECT(r.deviation_um > 0.0);
+    TH_EXPECT(r.ref_deviation_um == r.deviation_um);
+    TH_EXPECT(r.ref_deviation_p95_um == r.deviation_p95_um);
+    TH_EXPECT_EQ(r.ref.st.points, r.prog.st.points);
+    pk_sim_result_free(&r);
+}
+
 int th_main(int argc, char **argv);
 int th_main(int argc, char **argv)
 {
@@ -216,6 +242,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_an_axis_stepping_once_a_second_reads_its_speed),
         TH_CASE(test_serve_converts_speeds_with_the_steps_per_mm_in_force),
         TH_CASE(test_the_programmed_path_is_held_in_a_fixed_window),
+        TH_CASE(test_a_second_reference_path_is_measured_the_same_way),
     };
     return th_run(cases, TH_COUNT(cases));
 }
