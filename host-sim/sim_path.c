@@ -428,8 +428,12 @@ int pk_path_init(struct pk_path *pa, unsigned dims, uint32_t cap, double step_um
     pa->grp = calloc(ngrp(pa), sizeof *pa->grp);
     pa->hist = calloc(PK_PATH_HIST_BINS, sizeof *pa->hist);
     pa->dup = calloc(2u * (size_t)c, sizeof *pa->dup);
-    if (pa->ring == NULL || pa->blk == NULL || pa->grp == NULL || pa->hist == NULL || pa->dup == NULL)
+    pa->edge = malloc((PK_PATH_HIST_BINS + 1u) * sizeof *pa->edge);
+    if (pa->ring == NULL || pa->blk == NULL || pa->grp == NULL || pa->hist == NULL || pa->dup == NULL ||
+        pa->edge == NULL)
         return -1;
+    for (unsigned k = 0; k <= PK_PATH_HIST_BINS; k++)
+        pa->edge[k] = PK_PATH_HIST_MIN_UM * pow(1.0 + PK_PATH_HIST_REL, (double)k);
     pa->m_min_um = step_um > 0.0 ? step_um / 2.0 : 1.0;
     pa->m_um = 4.0 * pa->m_min_um;
     pa->cursor = SEQ_NONE;
@@ -444,7 +448,9 @@ void pk_path_free(struct pk_path *pa)
     free(pa->grp);
     free(pa->hist);
     free(pa->dup);
+    free(pa->edge);
     pa->dup = NULL;
+    pa->edge = NULL;
     pa->ring = NULL;
     pa->blk = pa->grp = NULL;
     pa->hist = NULL;
@@ -814,8 +820,6 @@ double pk_path_window_dist(const struct pk_path *pa, const double pt[3])
 }
 
 /* ---- histogram ------------------------------------------------------------------ */
-static double hist_edge(unsigned k) { return PK_PATH_HIST_MIN_UM * pow(1.0 + PK_PATH_HIST_REL, (double)k); }
-
 static void hist_add(struct pk_path *pa, double d)
 {
     if (!(d >= PK_PATH_HIST_MIN_UM)) {
@@ -825,9 +829,9 @@ static void hist_add(struct pk_path *pa, double d)
     double kf = floor(log(d / PK_PATH_HIST_MIN_UM) / log1p(PK_PATH_HIST_REL));
     unsigned k = kf < 0.0 ? 0u : kf >= (double)(PK_PATH_HIST_BINS - 1u) ? PK_PATH_HIST_BINS - 1u : (unsigned)kf;
     /* the rounding of log: settle the bin with the same edges quantile uses */
-    while (k > 0u && hist_edge(k) > d)
+    while (k > 0u && pa->edge[k] > d)
         k--;
-    while (k + 1u < PK_PATH_HIST_BINS && hist_edge(k + 1u) <= d)
+    while (k + 1u < PK_PATH_HIST_BINS && pa->edge[k + 1u] <= d)
         k++;
     pa->hist[k]++;
 }
@@ -845,7 +849,7 @@ double pk_path_quantile(const struct pk_path *pa, double q)
     for (unsigned k = 0; k < PK_PATH_HIST_BINS; k++) {
         acc += pa->hist[k];
         if (acc >= rank)
-            return fmin(k + 1u < PK_PATH_HIST_BINS ? hist_edge(k + 1u) : INFINITY, pa->st.max_um);
+            return fmin(k + 1u < PK_PATH_HIST_BINS ? pa->edge[k + 1u] : INFINITY, pa->st.max_um);
     }
     return pa->st.max_um;
 }

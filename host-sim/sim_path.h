@@ -220,6 +220,7 @@ struct pk_path {
     /* figures */
     struct pk_path_stats st;
     uint32_t *hist;                   /* PK_PATH_HIST_BINS counts */
+    double *edge;                     /* PK_PATH_HIST_BINS + 1 bin edges */
     uint64_t *dup;                    /* 2 cap slots: seq + 1 of entries by geometry (0: empty) */
     uint64_t dup_inserts;             /* since the table was last rebuilt */
     uint64_t hist_zero;               /* deviations below PK_PATH_HIST_MIN_UM */
@@ -232,7 +233,7 @@ struct pk_path {
  * Set up an empty path. dims: 2 or 3 axes measured; cap: window size (rounded
  * up to a power of two, at least 1024; 0: PK_PATH_CAP_DEFAULT); step_um: the
  * smallest step length of the machine (sets the smallest anchor radius; > 0).
- * Memory: cap * PK_PATH_ENTRY_BYTES + PK_PATH_HIST_BINS * 4 bytes, allocated
+ * Memory: cap * PK_PATH_ENTRY_BYTES + PK_PATH_HIST_BINS * 12 bytes, allocated
  * here and never grown. @return 0, or -1 out of memory (then pk_path_free).
  */
 int pk_path_init(struct pk_path *pa, unsigned dims, uint32_t cap, double step_um);
