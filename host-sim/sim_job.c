@@ -118,12 +118,12 @@ void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out)
 static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
                             size_t errlen, unsigned lineno, int *rc)
 {
+    if (num != 32u && num != 208u)
+        return 0;
     char *end;
     double v = strtod(val, &end);
     while (isspace((unsigned char)*end))
         end++;
-    if (num != 32u && num != 208u)
-        return 0;
     if (end == val || *end != '\0' || !isfinite(v)) {
         *rc = failf(err, errlen, "line %u: $%lu: bad number", lineno, num);
         return 1;

@@ -210,3 +210,18 @@ void pk_rate_step(struct pk_rate *r, uint64_t tick, int dir, int shared)
         sr->ws_n = r->n;
     }
 }
+
+void pk_rate_feed(struct pk_rate *r, unsigned axes, size_t n, const uint64_t *tick, const uint8_t *axis,
+                  const int8_t *dir)
+{
+    size_t i = 0;
+    while (i < n) {
+        size_t j = i + 1u;
+        while (j < n && tick[j] == tick[i])
+            j++;
+        for (size_t k = i; k < j; k++)
+            if (axis[k] < axes)
+                pk_rate_step(&r[axis[k]], tick[k], dir[k], j - i > 1u);
+        i = j;
+    }
+}

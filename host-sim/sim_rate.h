@@ -6,7 +6,8 @@
  * axis: the planned motion through the block ends, which are whole steps.
  * A decoded step instant i (tick t_i, position x_i after the step) differs
  * from it by at most
- *   - tau ticks in time (the step generator's timer rounding; default 1), and
+ *   - tau ticks in time (the step generator's timer rounding; default 1;
+ *     `plotkin sim` adds the direction set-up $206, which can delay an edge), and
  *   - q_i steps in position: 0 for a step alone on its tick (then the axis is
  *     the dominant axis of its block, whose steps are the Bresenham events
  *     themselves), q_shared (default 1/2) for a step sharing its tick with
@@ -63,6 +64,7 @@
 #ifndef PLOTKIN_SIM_RATE_H
 #define PLOTKIN_SIM_RATE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 /** Configuration of one axis's estimator. Zero members take the defaults. */
@@ -145,6 +147,14 @@ void pk_rate_set_scale(struct pk_rate *r, double units_per_step);
  * stepped on the same tick (shared: use q_shared instead of q_alone).
  */
 void pk_rate_step(struct pk_rate *r, uint64_t tick, int dir, int shared);
+
+/**
+ * Feed a whole trace: n steps in time order (tick, axis < axes, dir +1/-1),
+ * into r[0..axes-1] (initialised). Steps of several axes on one tick are
+ * fed as shared. For tests on a recorded trace (e.g. hal_record's edges).
+ */
+void pk_rate_feed(struct pk_rate *r, unsigned axes, size_t n, const uint64_t *tick, const uint8_t *axis,
+                  const int8_t *dir);
 
 /**
  * The bounds of one speed window, for tests that check windows themselves:

@@ -175,7 +175,9 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
     pk_decoder_init(&r->decoder, &dc, &r->dec, o->keep_events);
     r->decoder.on_step = on_step;
     r->decoder.on_step_arg = r;
-    struct pk_rate_cfg rc = { .tick_hz = c->tick_hz };
+    /* a step edge can be late by the timer's rounding (1 tick) and by the
+     * direction set-up the step generator waits for before it ($206) */
+    struct pk_rate_cfg rc = { .tick_hz = c->tick_hz, .tau_ticks = 1.0 + (double)r->mcfg.dir_setup_ticks };
     for (unsigned a = 0; a < PK_AXES; a++)
         pk_rate_init(&r->rate[a], &rc);
     if (o->trace_csv != NULL)

@@ -231,6 +231,29 @@ static void test_a_new_scale_starts_new_windows(void)
     TH_EXPECT(fabs(r.accel.amax.a) < 1e-6); /* no window mixes the two scales */
 }
 
+/* A whole trace at once: steps on one tick are shared, the others alone. */
+static void test_a_trace_is_fed_with_its_shared_ticks(void)
+{
+    struct pk_rate a[2], b[2];
+    struct pk_rate_cfg c = cfg_hz();
+    const uint64_t t[6] = { 100, 100, 300, 500, 500, 700 };
+    const uint8_t ax[6] = { 0, 1, 0, 0, 1, 0 };
+    const int8_t d[6] = { 1, -1, 1, 1, -1, 1 };
+    for (int i = 0; i < 2; i++) {
+        pk_rate_init(&a[i], &c);
+        pk_rate_init(&b[i], &c);
+    }
+    pk_rate_feed(a, 2, 6, t, ax, d);
+    const int shared[6] = { 1, 1, 0, 1, 1, 0 };
+    for (int i = 0; i < 6; i++)
+        pk_rate_step(&b[ax[i]], t[i], d[i], shared[i]);
+    for (int i = 0; i < 2; i++) {
+        TH_EXPECT(memcmp(a[i].q, b[i].q, sizeof a[i].q) == 0);
+        TH_EXPECT(a[i].speed2.lo_max == b[i].speed2.lo_max && a[i].steps == b[i].steps);
+    }
+    TH_EXPECT(a[0].q[0] == 0.5 && a[0].q[1] == 0.0); /* the first X step shared its tick */
+}
+
 int th_main(int argc, char **argv);
 int th_main(int argc, char **argv)
 {
@@ -244,6 +267,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_speed_jump_and_a_step_burst_are_proven),
         TH_CASE(test_the_bounds_contain_the_ideal_values),
         TH_CASE(test_a_new_scale_starts_new_windows),
+        TH_CASE(test_a_trace_is_fed_with_its_shared_ticks),
     };
     return th_run(cases, TH_COUNT(cases));
 }
