@@ -429,8 +429,11 @@ int pk_path_init(struct pk_path *pa, unsigned dims, uint32_t cap, double step_um
     pa->hist = calloc(PK_PATH_HIST_BINS, sizeof *pa->hist);
     pa->dup = calloc(2u * (size_t)c, sizeof *pa->dup);
     pa->edge = malloc((PK_PATH_HIST_BINS + 1u) * sizeof *pa->edge);
+    pa->gslot = calloc(PK_PATH_GRID_SLOTS, sizeof *pa->gslot);
+    pa->gnode = malloc(PK_PATH_GRID_NODES * sizeof *pa->gnode);
+    pa->longl = malloc(PK_PATH_LONG_MAX * sizeof *pa->longl);
     if (pa->ring == NULL || pa->blk == NULL || pa->grp == NULL || pa->hist == NULL || pa->dup == NULL ||
-        pa->edge == NULL)
+        pa->edge == NULL || pa->gslot == NULL || pa->gnode == NULL || pa->longl == NULL)
         return -1;
     for (unsigned k = 0; k <= PK_PATH_HIST_BINS; k++)
         pa->edge[k] = PK_PATH_HIST_MIN_UM * pow(1.0 + PK_PATH_HIST_REL, (double)k);
@@ -449,6 +452,12 @@ void pk_path_free(struct pk_path *pa)
     free(pa->hist);
     free(pa->dup);
     free(pa->edge);
+    free(pa->gslot);
+    free(pa->gnode);
+    free(pa->longl);
+    pa->gslot = NULL;
+    pa->gnode = NULL;
+    pa->longl = NULL;
     pa->dup = NULL;
     pa->edge = NULL;
     pa->ring = NULL;
@@ -488,9 +497,12 @@ static void cand_insert(struct pk_path *pa, uint64_t seq, double d)
     pa->cand[i] = (struct pk_path_cand){ seq, d };
 }
 
+static double xy_len(const struct pk_path_prim *p);
+
 static void drop_oldest(struct pk_path *pa)
 {
     uint64_t s = pa->tail++;
+    pa->win_len_um -= xy_len(&ent(pa, s)->p);
     if (s < pa->released)
         pa->st.dropped++;
     else
@@ -503,6 +515,256 @@ static void drop_oldest(struct pk_path *pa)
             }
     }
 }
+
+/* ---- the grid ------------------------------------------------------------------ */
+#define GRID_MIN_ENTRIES 1024u /* below this the hierarchy alone is cheap */
+#define GRID_CELLS_MAX 256u    /* cells an entry may take, else the long list */
+#define GRID_QUERY_CELLS 8.0   /* radius (in cells) above which the hierarchy is used */
+#define GRID_MIN_CELL_UM 20.0
+#define GRID_MAX_CELL_UM 1e6
+
+static int64_t gkey(int64_t ix, int64_t iy) { return (int64_t)((uint64_t)ix << 32) ^ (int64_t)(uint32_t)iy; }
+static uint32_t ghash(int64_t k)
+{
+    uint64_t h = (uint64_t)k * 0x9E3779B97F4A7C15ull;
+    return (uint32_t)(h >> 32) ^ (uint32_t)h;
+}
+
+/* The slot of a cell; create: make it if missing (NULL if the table is too full). */
+static struct pk_path_gslot *gslot_of(struct pk_path *pa, int64_t key, int create)
+{
+    const uint32_t mask = PK_PATH_GRID_SLOTS - 1u;
+    uint32_t i = ghash(key) & mask;
+    for (uint32_t n = 0; n < PK_PATH_GRID_SLOTS; n++, i = (i + 1u) & mask) {
+        struct pk_path_gslot *sl = &pa->gslot[i];
+        if (!sl->used) {
+            if (!create || pa->g_slots_used >= PK_PATH_GRID_SLOTS / 4u * 3u)
+                return NULL;
+            sl->used = 1;
+            sl->key = key;
+            sl->head = 0;
+            pa->g_slots_used++;
+            return sl;
+        }
+        if (sl->key == key)
+            return sl;
+    }
+    return NULL;
+}
+
+struct gcells { int64_t c[8][2]; unsigned n; };
+
+/* Register seq in cell (ix, iy), unless it was one of the last few. 0, or -1 (full). */
+static int grid_put(struct pk_path *pa, uint64_t seq, int64_t ix, int64_t iy, struct gcells *recent)
+{
+    for (unsigned k = 0; k < recent->n; k++)
+        if (recent->c[k][0] == ix && recent->c[k][1] == iy)
+            return 0;
+    recent->c[recent->n % 8u][0] = ix;
+    recent->c[recent->n % 8u][1] = iy;
+    if (recent->n < 8u)
+        recent->n++;
+    if (pa->g_nodes >= PK_PATH_GRID_NODES)
+        return -1;
+    struct pk_path_gslot *sl = gslot_of(pa, gkey(ix, iy), 1);
+    if (sl == NULL)
+        return -1;
+    struct pk_path_gnode *nd = &pa->gnode[pa->g_nodes];
+    nd->seq = (uint32_t)seq;
+    nd->next = sl->head;
+    sl->head = ++pa->g_nodes;
+    return 0;
+}
+
+/* Every cell of the box [x0, x1] x [y0, y1] (at most 2 x 2 for the pieces used). */
+static int grid_box(struct pk_path *pa, uint64_t seq, double x0, double y0, double x1, double y1,
+                    struct gcells *recent)
+{
+    const double c = pa->cell_um;
+    int64_t i0 = (int64_t)floor(x0 / c), i1 = (int64_t)floor(x1 / c);
+    int64_t j0 = (int64_t)floor(y0 / c), j1 = (int64_t)floor(y1 / c);
+    for (int64_t i = i0; i <= i1; i++)
+        for (int64_t j = j0; j <= j1; j++)
+            if (grid_put(pa, seq, i, j, recent) != 0)
+                return -1;
+    return 0;
+}
+
+/* Length of a primitive in X, Y (its control polygon for curves, an upper bound). */
+static double xy_len(const struct pk_path_prim *p)
+{
+    if (p->kind == PK_PATH_LINE)
+        return hypot(p->p1[0] - p->p0[0], p->p1[1] - p->p0[1]);
+    if (p->kind == PK_PATH_ARC)
+        return fabs(p->sweep) * fmax(p->r0, p->r1) + fabs(p->r1 - p->r0) + fabs(p->p1[2] - p->p0[2]);
+    double len = hypot(p->c[0][0] - p->p0[0], p->c[0][1] - p->p0[1]);
+    if (p->kind == PK_PATH_QUAD)
+        return len + hypot(p->p1[0] - p->c[0][0], p->p1[1] - p->c[0][1]);
+    return len + hypot(p->c[1][0] - p->c[0][0], p->c[1][1] - p->c[0][1]) +
+           hypot(p->p1[0] - p->c[1][0], p->p1[1] - p->c[1][1]);
+}
+
+/*
+ * Register entry seq in every cell it passes through: the curve is cut into
+ * pieces no longer than a cell (chords within a quarter cell of the curve,
+ * which pads each piece's box), and each piece's box names at most 2 x 2
+ * cells. An entry that would take more than GRID_CELLS_MAX cells, or that
+ * lies out of the grid's index range, goes to the long list.
+ * @return 0, or -1 if the pool, the table or the long list is full
+ */
+static int grid_add(struct pk_path *pa, uint64_t seq)
+{
+    struct pk_path_ent *e = ent(pa, seq);
+    const struct pk_path_prim *p = &e->p;
+    const double c = pa->cell_um;
+    double len = xy_len(p);
+    int big = len / c > GRID_CELLS_MAX / 4.0;
+    for (int i = 0; i < 2 && !big; i++)
+        big = fabs(e->lo[i]) / c > 1e9 || fabs(e->hi[i]) / c > 1e9;
+    if (big) {
+        if (pa->n_long >= PK_PATH_LONG_MAX)
+            return -1;
+        pa->longl[pa->n_long++] = seq;
+        e->in_grid = 0;
+        return 0;
+    }
+    e->in_grid = 1;
+    struct gcells recent = { { { 0 } }, 0 };
+    if (p->kind == PK_PATH_LINE) {
+        unsigned n = (unsigned)ceil(len / c);
+        n = n < 1u ? 1u : n;
+        for (unsigned k = 0; k < n; k++) {
+            double t0 = (double)k / n, t1 = (double)(k + 1u) / n;
+            double x0 = p->p0[0] + (p->p1[0] - p->p0[0]) * t0, y0 = p->p0[1] + (p->p1[1] - p->p0[1]) * t0;
+            double x1 = p->p0[0] + (p->p1[0] - p->p0[0]) * t1, y1 = p->p0[1] + (p->p1[1] - p->p0[1]) * t1;
+            double pad = 1e-9 * (fabs(x0) + fabs(y0) + fabs(x1) + fabs(y1)) + 1e-9;
+            if (grid_box(pa, seq, fmin(x0, x1) - pad, fmin(y0, y1) - pad, fmax(x0, x1) + pad, fmax(y0, y1) + pad,
+                         &recent) != 0)
+                return -1;
+        }
+        return 0;
+    }
+    /* curves: chords within c/4 of the curve, each cut to pieces of <= c */
+    unsigned n = pk_path_prim_flatten_n(p, c / 4.0);
+    double a[3];
+    pk_path_prim_eval(p, 0.0, a);
+    for (unsigned k = 1; k <= n; k++) {
+        double b[3];
+        pk_path_prim_eval(p, (double)k / n, b);
+        double cl = hypot(b[0] - a[0], b[1] - a[1]);
+        unsigned m = (unsigned)ceil(cl / c);
+        m = m < 1u ? 1u : m;
+        for (unsigned j = 0; j < m; j++) {
+            double t0 = (double)j / m, t1 = (double)(j + 1u) / m;
+            double x0 = a[0] + (b[0] - a[0]) * t0, y0 = a[1] + (b[1] - a[1]) * t0;
+            double x1 = a[0] + (b[0] - a[0]) * t1, y1 = a[1] + (b[1] - a[1]) * t1;
+            double pad = c / 4.0 + 1e-9 * (fabs(x0) + fabs(y0)) + 1e-9;
+            if (grid_box(pa, seq, fmin(x0, x1) - pad, fmin(y0, y1) - pad, fmax(x0, x1) + pad, fmax(y0, y1) + pad,
+                         &recent) != 0)
+                return -1;
+        }
+        memcpy(a, b, sizeof a);
+    }
+    return 0;
+}
+
+/*
+ * Start the grid again from the live entries with the smallest cell that
+ * leaves half the pool free: an entry of length L takes about 3 (L / c + 1)
+ * nodes, so c >= sum L / (nodes / 6 - live); doubled until they fit.
+ */
+static void grid_rebuild(struct pk_path *pa)
+{
+    double sum = 0.0;
+    uint64_t live = 0;
+    for (uint64_t s = pa->tail; s < pa->head; s++)
+        if (!ent(pa, s)->dead) {
+            sum += xy_len(&ent(pa, s)->p);
+            live++;
+        }
+    double room = (double)PK_PATH_GRID_NODES / 6.0 - (double)live;
+    double c = room > 0.0 ? sum / room : GRID_MAX_CELL_UM;
+    c = c < GRID_MIN_CELL_UM ? GRID_MIN_CELL_UM : c;
+    pa->grid_rebuilds++;
+    for (; c <= GRID_MAX_CELL_UM; c *= 2.0) {
+        memset(pa->gslot, 0, PK_PATH_GRID_SLOTS * sizeof *pa->gslot);
+        pa->g_nodes = pa->g_slots_used = 0;
+        pa->n_long = 0;
+        pa->cell_um = c;
+        int ok = 1;
+        for (uint64_t s = pa->tail; s < pa->head && ok; s++)
+            if (!ent(pa, s)->dead)
+                ok = grid_add(pa, s) == 0;
+        /* room to grow before the next rebuild */
+        if (ok && pa->g_nodes <= PK_PATH_GRID_NODES / 2u && pa->g_slots_used <= PK_PATH_GRID_SLOTS / 2u &&
+            pa->n_long <= PK_PATH_LONG_MAX / 2u) {
+            pa->grid_on = 1;
+            return;
+        }
+    }
+    pa->grid_on = 0; /* nothing fits: the hierarchy alone */
+}
+
+/* A new entry: into the grid, rebuilding it when full (or building it once
+ * the window is big enough to need it). */
+static void grid_insert(struct pk_path *pa, uint64_t seq)
+{
+    if (!pa->grid_on) {
+        if (pa->head - pa->tail >= GRID_MIN_ENTRIES && pa->gslot != NULL && pa->grid_rebuilds == 0u)
+            grid_rebuild(pa);
+        return;
+    }
+    if (grid_add(pa, seq) != 0)
+        grid_rebuild(pa); /* includes seq */
+}
+
+typedef void (*visit_fn)(struct pk_path *pa, uint64_t seq, double *lim, const double *q, void *arg);
+
+/* Visit the entries registered in the cells within *lim of q (each once).
+ * Returns 0, or -1 if the grid cannot answer (off, or the radius too big). */
+static int grid_visit(struct pk_path *pa, const double *q, double *lim, visit_fn fn, void *arg)
+{
+    const double c = pa->cell_um, R = *lim;
+    if (!pa->grid_on || !(R <= GRID_QUERY_CELLS * c))
+        return -1;
+    if (++pa->stamp == 0u) { /* wrapped: forget every stamp */
+        for (uint32_t i = 0; i < pa->cap; i++)
+            pa->ring[i].stamp = 0;
+        pa->stamp = 1;
+    }
+    const uint32_t st = pa->stamp;
+    int64_t i0 = (int64_t)floor((q[0] - R) / c), i1 = (int64_t)floor((q[0] + R) / c);
+    int64_t j0 = (int64_t)floor((q[1] - R) / c), j1 = (int64_t)floor((q[1] + R) / c);
+    for (int64_t i = i0; i <= i1; i++)
+        for (int64_t j = j0; j <= j1; j++) {
+            const struct pk_path_gslot *sl = gslot_of(pa, gkey(i, j), 0);
+            for (uint32_t nd = sl != NULL ? sl->head : 0u; nd != 0u; nd = pa->gnode[nd - 1u].next) {
+                uint32_t back = (uint32_t)pa->head - pa->gnode[nd - 1u].seq; /* the window is < 2^32 */
+                if (back == 0u || back > pa->head - pa->tail)
+                    continue; /* dropped since */
+                uint64_t s = pa->head - back;
+                struct pk_path_ent *e = ent(pa, s);
+                if (e->dead || e->stamp == st)
+                    continue;
+                e->stamp = st;
+                if (ent_box_dist(e, q, pa->dims) <= *lim)
+                    fn(pa, s, lim, q, arg);
+            }
+        }
+    for (uint32_t k = 0; k < pa->n_long; k++) {
+        uint64_t s = pa->longl[k];
+        if (s < pa->tail || s >= pa->head)
+            continue;
+        struct pk_path_ent *e = ent(pa, s);
+        if (e->dead || e->stamp == st)
+            continue;
+        e->stamp = st;
+        if (ent_box_dist(e, q, pa->dims) <= *lim)
+            fn(pa, s, lim, q, arg);
+    }
+    return 0;
+}
+
 
 /* ---- repeated strokes ------------------------------------------------------------ */
 /* Same point set? Lines either way round; curves as given. */
@@ -594,6 +856,8 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
         return; /* a repeated point: already on the path */
     if (pa->head - pa->tail == pa->cap)
         drop_oldest(pa);
+    while (pa->win_len_um > PK_PATH_LEN_MAX && pa->tail < pa->released && pa->tail < pa->head)
+        drop_oldest(pa); /* a long window of released strokes: let them go now */
     if (pa->dup_inserts >= pa->cap)
         dup_rebuild(pa); /* before the new entry exists */
     uint64_t seq = pa->head++;
@@ -632,7 +896,10 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
     box_add(g->lo, g->hi, elo);
     box_add(g->lo, g->hi, ehi);
     pa->st.stored++;
+    pa->win_len_um += xy_len(&e->p);
     e->dead = 0;
+    e->stamp = 0;
+    e->in_grid = 0;
     uint64_t old = dup_replace(pa, seq);
     pa->dup_inserts++;
     if (old != SEQ_NONE) {
@@ -644,6 +911,7 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
                 break;
             }
     }
+    grid_insert(pa, seq);
     memcpy(pa->last_end, p->p1, sizeof pa->last_end);
     if (p->kind == PK_PATH_ARC)
         arc_eval(p, 1.0, pa->last_end);
@@ -656,15 +924,17 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
     }
 }
 
+
 /*
  * Visit every entry of the window whose box lies within *lim of q (block and
  * group boxes first), in seq order. fn may lower *lim (nearest search) or
  * leave it (radius search).
  */
-typedef void (*visit_fn)(struct pk_path *pa, uint64_t seq, double *lim, const double *q, void *arg);
 static void visit(struct pk_path *pa, const double *q, double *lim, visit_fn fn, void *arg)
 {
     const unsigned dims = pa->dims;
+    if (grid_visit(pa, q, lim, fn, arg) == 0)
+        return;
     uint64_t s = pa->tail;
     while (s < pa->head) {
         uint64_t g0 = s >> GRP_SHIFT << GRP_SHIFT, g1 = g0 + (1u << GRP_SHIFT);

@@ -33,14 +33,18 @@
  * PK_PATH_EPS_UM.
  *
  * Speed. Each point is matched against a short candidate list (the primitives
- * within R = d0 + 2m of an anchor point, d0 the anchor's deviation, collected
- * through a two-level bounding-box hierarchy over the window and kept up to
- * date as primitives arrive); while the point stays within m of the anchor
+ * within R = d0 + 2m of an anchor point, d0 the anchor's deviation, kept up
+ * to date as primitives arrive); while the point stays within m of the anchor
  * no other primitive can be nearer (distance is 1-Lipschitz), so the answer is
- * exact. m adapts to the density of the path.
+ * exact. m adapts to the density of the path. The list is collected through a
+ * uniform grid over X and Y (every cell a primitive passes through lists it;
+ * the cell size doubles when the grid's fixed node pool would overflow) for
+ * small radii, and through a two-level bounding-box hierarchy over the window
+ * otherwise; both only ever skip a primitive that cannot be within the radius.
  *
  * Bounded memory. The window is a ring of `cap` primitives (a power of two,
- * PK_PATH_ENTRY_BYTES each, allocated once at init). A zero-length line that
+ * PK_PATH_ENTRY_BYTES each, allocated once at init); released entries also
+ * go as soon as the window is longer than PK_PATH_LEN_MAX. A zero-length line that
  * starts where the previous primitive ends adds nothing to the point set and is
  * not stored (repeated points cost nothing). When the ring is full the oldest
  * primitive is dropped if it is *released*: older than every primitive matched
@@ -88,6 +92,9 @@
 #define PK_PATH_BACK 64u
 /** Default window: primitives (power of two). */
 #define PK_PATH_CAP_DEFAULT (1u << 16)
+/** Released entries are dropped at once while the window's primitives are
+ *  longer than this in all (µm, 50 m): long strokes need no deep window. */
+#define PK_PATH_LEN_MAX 5e7
 
 /** Kind of a primitive. */
 enum pk_path_kind {
@@ -184,7 +191,13 @@ struct pk_path_ent {
     struct pk_path_prim p;
     float lo[3], hi[3];     /**< bounding box, rounded outwards */
     uint8_t dead;           /**< a later entry is the same point set (a repeated stroke) */
+    uint8_t in_grid;        /**< registered in the grid (else in the long list) */
+    uint32_t stamp;         /**< last grid query that visited it */
 };
+
+/** Private: the grid over X and Y that finds the entries near a point. */
+struct pk_path_gslot { int64_t key; uint32_t head; uint32_t used; };
+struct pk_path_gnode { uint32_t seq; uint32_t next; };  /* seq: its low 32 bits */
 
 /** Private: a bounding box of a block (32 entries) or a group (1024). */
 struct pk_path_box { double lo[3], hi[3]; uint64_t seq0; };
@@ -193,6 +206,15 @@ struct pk_path_box { double lo[3], hi[3]; uint64_t seq0; };
 struct pk_path_cand { uint64_t seq; double d_anchor; };
 
 #define PK_PATH_CAND_MAX 64u
+#ifndef PK_PATH_GRID_SLOTS
+#define PK_PATH_GRID_SLOTS (1u << 17)
+#endif
+#ifndef PK_PATH_GRID_NODES
+#define PK_PATH_GRID_NODES (1u << 20)
+#endif
+#ifndef PK_PATH_LONG_MAX
+#define PK_PATH_LONG_MAX 1024u
+#endif
 #define PK_PATH_HIST_BINS 24000u
 
 /** A reference path and its figures. Set up with pk_path_init. */
@@ -222,6 +244,17 @@ struct pk_path {
     uint32_t *hist;                   /* PK_PATH_HIST_BINS counts */
     double *edge;                     /* PK_PATH_HIST_BINS + 1 bin edges */
     uint64_t *dup;                    /* 2 cap slots: seq + 1 of entries by geometry (0: empty) */
+    /* the grid */
+    int grid_on;
+    double cell_um;
+    struct pk_path_gslot *gslot;      /* PK_PATH_GRID_SLOTS */
+    struct pk_path_gnode *gnode;      /* PK_PATH_GRID_NODES */
+    uint32_t g_nodes, g_slots_used;
+    uint32_t stamp;
+    uint64_t *longl;                  /* seqs of entries too long for the grid */
+    uint32_t n_long;
+    uint64_t grid_rebuilds;
+    double win_len_um;                /* total X-Y length of the entries held */
     uint64_t dup_inserts;             /* since the table was last rebuilt */
     uint64_t hist_zero;               /* deviations below PK_PATH_HIST_MIN_UM */
 };
@@ -233,7 +266,8 @@ struct pk_path {
  * Set up an empty path. dims: 2 or 3 axes measured; cap: window size (rounded
  * up to a power of two, at least 1024; 0: PK_PATH_CAP_DEFAULT); step_um: the
  * smallest step length of the machine (sets the smallest anchor radius; > 0).
- * Memory: cap * PK_PATH_ENTRY_BYTES + PK_PATH_HIST_BINS * 12 bytes, allocated
+ * Memory: cap * PK_PATH_ENTRY_BYTES + PK_PATH_HIST_BINS * 12 bytes + the grid
+ * (PK_PATH_GRID_SLOTS * 16 + PK_PATH_GRID_NODES * 8 bytes), allocated
  * here and never grown. @return 0, or -1 out of memory (then pk_path_free).
  */
 int pk_path_init(struct pk_path *pa, unsigned dims, uint32_t cap, double step_um);

@@ -398,6 +398,59 @@ static void test_the_matcher_gives_the_brute_force_distance_at_every_point(void)
     pk_path_free(&pa);
 }
 
+/* A hatch of long strokes with short links (the grid's cells grow, long
+ * strokes go to its long list), then a dense scribble of 20 µm moves over
+ * it: every point against brute force over everything added. */
+static void test_hatches_and_scribbles_through_the_grid_match_brute_force(void)
+{
+    static struct pk_path pa;
+    enum { NP = 4000 };
+    static struct pk_path_prim all[NP];
+    static struct tbox box[NP];
+    TH_ASSERT_EQ(pk_path_init(&pa, 2, 1u << 13, 12.5), 0);
+    double cur[3] = { 0, 0, 0 };
+    size_t n = 0;
+    unsigned mism = 0, pts = 0;
+    for (int k = 0; k < NP; k++) {
+        double e[3] = { 0, 0, 0 };
+        if (k % 500 == 7) { /* now and then a 200 mm diagonal (the grid's long list) */
+            e[0] = cur[0] > 1e5 ? 0.0 : 2e5;
+            e[1] = cur[1] + (cur[0] > 1e5 ? -1e5 : 1e5);
+        } else if (k < 3000) { /* strokes of 30 mm, 0.2 mm apart, joined by 0.2 mm links */
+            int row = k / 2;
+            e[0] = k % 2 ? cur[0] : row % 2 == 0 ? 30000.0 : 0.0;
+            e[1] = k % 2 ? cur[1] + 200.0 : cur[1];
+        } else {
+            e[0] = cur[0] + srand_(-20, 20);
+            e[1] = fmin(fmax(cur[1] + srand_(-20, 20), 0), 3e5);
+        }
+        pk_path_line(&all[n], cur, e);
+        all[n].line = (uint32_t)k + 1u;
+        test_box(&all[n], &box[n]);
+        pk_path_add(&pa, &all[n]);
+        memcpy(cur, e, sizeof cur);
+        n++;
+        if (k % 3 != 0)
+            continue;
+        double q[3];
+        pk_path_prim_eval(&all[(size_t)(urand() * (double)n)], urand(), q);
+        q[0] += srand_(-40, 40);
+        q[1] += srand_(-40, 40);
+        double got = pk_path_measure(&pa, q, pts++, NULL, NULL), want = INFINITY;
+        for (size_t j = 0; j < n; j++)
+            if (tbox_dist(&box[j], q) <= want)
+                want = fmin(want, pk_path_prim_dist(&all[j], q, 2, NULL));
+        if (fabs(got - want) > 1e-6 + 1e-9 * want && mism++ < 5)
+            printf("    k %d: got %.6f want %.6f\n", k, got, want);
+    }
+    TH_EXPECT_EQ(mism, 0);
+    TH_EXPECT(pa.grid_on && pa.grid_rebuilds >= 1u && pa.n_long > 0u);
+    if (getenv("PK_VERBOSE"))
+        printf("    grid: %llu stored, cell %.0f um, %u nodes, %u long, %llu rebuilds\n", (unsigned long long)pa.st.stored, pa.cell_um, pa.g_nodes, pa.n_long,
+               (unsigned long long)pa.grid_rebuilds);
+    pk_path_free(&pa);
+}
+
 /*
  * A long path through a small window, as a producer that waits for room
  * feeds it: the executed points lag far behind the newest primitive; the
@@ -534,6 +587,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_arc_distance_matches_dense_sampling_of_the_arc),
         TH_CASE(test_bezier_distance_matches_dense_sampling_of_the_curve),
         TH_CASE(test_the_matcher_gives_the_brute_force_distance_at_every_point),
+        TH_CASE(test_hatches_and_scribbles_through_the_grid_match_brute_force),
         TH_CASE(test_a_small_window_keeps_what_the_machine_has_not_passed),
         TH_CASE(test_forced_drops_are_counted_and_only_make_figures_larger),
         TH_CASE(test_a_stroke_drawn_many_times_is_matched_once),
