@@ -356,9 +356,10 @@ void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk
 
 void pk_sim_job_free(struct pk_sim_job *j) { (void)j; }
 
-/* The observer's primitive for a move from j->cur (µm) to `to`. */
-static void observe_move(struct pk_sim_job *j, const pk_um_t to[PK_GC_AXES], int rapid,
-                         const pk_um_t (*ctrl)[2], int nctrl)
+/* The observer's primitive for a move from j->cur (µm) to `to` (at least
+ * PK_AXES coordinates; axes beyond PK_AXES stay 0). */
+static void observe_move(struct pk_sim_job *j, const pk_um_t *to, int rapid, const pk_um_t (*ctrl)[2],
+                         int nctrl)
 {
     struct pk_path_prim p;
     double a[3] = { 0, 0, 0 }, b[3] = { 0, 0, 0 };
