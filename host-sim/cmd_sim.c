@@ -137,6 +137,8 @@ static void json_path(FILE *f, const char *prefix, const struct pk_path *p, doub
     const struct pk_path_stats *s = &p->st;
     fprintf(f, ",\n  \"%smax_deviation_mm\": %.4f,\n  \"%sdeviation_p95_mm\": %.4f,\n", prefix,
             s->max_um / 1000.0, prefix, pk_path_quantile(p, 0.95) / 1000.0);
+    fprintf(f, "  \"%sdeviation_line_last\": %u,\n  \"%sdeviation_within_mm\": %.4f,\n", prefix,
+            (unsigned)s->max_line_last, prefix, s->approx_um / 1000.0);
     fprintf(f, "  \"%sdeviation_at_mm\": [%.4f, %.4f, %.4f],\n  \"%sdeviation_line\": %u,\n"
                "  \"%sdeviation_t_s\": %.6f,\n  \"%sdeviation_points\": %llu,\n  \"%spath_forced_drops\": %llu",
             prefix, s->max_at_um[0] / 1000.0, s->max_at_um[1] / 1000.0, s->max_at_um[2] / 1000.0, prefix,

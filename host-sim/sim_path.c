@@ -590,6 +590,25 @@ static int grid_box(struct pk_path *pa, uint64_t seq, double x0, double y0, doub
     return 0;
 }
 
+/* Register the cells a straight piece a-b passes through, padded by pad. */
+static int grid_piece(struct pk_path *pa, uint64_t seq, const double *a, const double *b, double pad0)
+{
+    const double c = pa->cell_um;
+    struct gcells recent = { { { 0 } }, 0 };
+    unsigned n = (unsigned)ceil(hypot(b[0] - a[0], b[1] - a[1]) / c);
+    n = n < 1u ? 1u : n;
+    for (unsigned k = 0; k < n; k++) {
+        double t0 = (double)k / n, t1 = (double)(k + 1u) / n;
+        double x0 = a[0] + (b[0] - a[0]) * t0, y0 = a[1] + (b[1] - a[1]) * t0;
+        double x1 = a[0] + (b[0] - a[0]) * t1, y1 = a[1] + (b[1] - a[1]) * t1;
+        double pad = pad0 + 1e-9 * (fabs(x0) + fabs(y0) + fabs(x1) + fabs(y1)) + 1e-9;
+        if (grid_box(pa, seq, fmin(x0, x1) - pad, fmin(y0, y1) - pad, fmax(x0, x1) + pad, fmax(y0, y1) + pad,
+                     &recent) != 0)
+            return -1;
+    }
+    return 0;
+}
+
 /* Length of a primitive in X, Y (its control polygon for curves, an upper bound). */
 static double xy_len(const struct pk_path_prim *p)
 {
@@ -630,20 +649,8 @@ static int grid_add(struct pk_path *pa, uint64_t seq)
     }
     e->in_grid = 1;
     struct gcells recent = { { { 0 } }, 0 };
-    if (p->kind == PK_PATH_LINE) {
-        unsigned n = (unsigned)ceil(len / c);
-        n = n < 1u ? 1u : n;
-        for (unsigned k = 0; k < n; k++) {
-            double t0 = (double)k / n, t1 = (double)(k + 1u) / n;
-            double x0 = p->p0[0] + (p->p1[0] - p->p0[0]) * t0, y0 = p->p0[1] + (p->p1[1] - p->p0[1]) * t0;
-            double x1 = p->p0[0] + (p->p1[0] - p->p0[0]) * t1, y1 = p->p0[1] + (p->p1[1] - p->p0[1]) * t1;
-            double pad = 1e-9 * (fabs(x0) + fabs(y0) + fabs(x1) + fabs(y1)) + 1e-9;
-            if (grid_box(pa, seq, fmin(x0, x1) - pad, fmin(y0, y1) - pad, fmax(x0, x1) + pad, fmax(y0, y1) + pad,
-                         &recent) != 0)
-                return -1;
-        }
-        return 0;
-    }
+    if (p->kind == PK_PATH_LINE) /* padded: a run that grows within the merge distance stays covered */
+        return grid_piece(pa, seq, p->p0, p->p1, PK_PATH_MERGE_UM);
     /* curves: chords within c/4 of the curve, each cut to pieces of <= c */
     unsigned n = pk_path_prim_flatten_n(p, c / 4.0);
     double a[3];
@@ -848,12 +855,130 @@ static uint64_t dup_replace(struct pk_path *pa, uint64_t seq)
     return SEQ_NONE;
 }
 
-void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
+
+/* ---- runs of lines ----------------------------------------------------------- */
+/* A line entry's cone: the directions (from its start, in X-Y) its end may
+ * take with every vertex of its run within PK_PATH_MERGE_UM of the segment. */
+static void cone_start(struct pk_path_ent *e)
 {
+    double dx = e->p.p1[0] - e->p.p0[0], dy = e->p.p1[1] - e->p.p0[1], r = hypot(dx, dy);
+    e->cone_ref = atan2(dy, dx);
+    double half = r > PK_PATH_MERGE_UM ? asin(PK_PATH_MERGE_UM / r) : PI_D;
+    e->cone_lo = -half;
+    e->cone_hi = half;
+}
+
+static double wrap_pi(double a)
+{
+    while (a > PI_D)
+        a -= TWO_PI;
+    while (a <= -PI_D)
+        a += TWO_PI;
+    return a;
+}
+
+static int grid_piece(struct pk_path *pa, uint64_t seq, const double *a, const double *b, double pad);
+
+/*
+ * Extend the newest entry by q (masked to dims) if q continues it: exactly
+ * (collinear, same direction, from its end), or, while the window is short
+ * of room, within PK_PATH_MERGE_UM (the cone rule: the new end's direction
+ * within every earlier vertex's allowance, asin(d / r), and no nearer to the
+ * start than the old end, so every vertex projects inside the segment).
+ * Returns 1 if merged.
+ */
+static int try_merge(struct pk_path *pa, const struct pk_path_prim *q)
+{
+    if (q->kind != PK_PATH_LINE || pa->head == pa->tail)
+        return 0;
+    const uint64_t seq = pa->head - 1u;
+    struct pk_path_ent *e = ent(pa, seq);
+    if (e->dead || e->p.kind != PK_PATH_LINE || e->p.drawn != q->drawn || e->p.rapid != q->rapid ||
+        memcmp(q->p0, e->p.p1, sizeof q->p0) != 0)
+        return 0;
+    const double *S = e->p.p0, *M = e->p.p1, *E = q->p1;
+    double d1[3], d2[3];
+    for (int i = 0; i < 3; i++) {
+        d1[i] = M[i] - S[i];
+        d2[i] = E[i] - M[i];
+    }
+    double cx = d1[1] * d2[2] - d1[2] * d2[1], cy = d1[2] * d2[0] - d1[0] * d2[2], cz = d1[0] * d2[1] - d1[1] * d2[0];
+    double dot = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2];
+    int exact = cx == 0.0 && cy == 0.0 && cz == 0.0 && dot > 0.0;
+    double rx = E[0] - S[0], ry = E[1] - S[1], r = hypot(rx, ry);
+    double delta = wrap_pi(atan2(ry, rx) - e->cone_ref);
+    if (!exact) {
+        int flat = S[2] == M[2] && M[2] == E[2];
+        size_t room = pk_path_room(pa);
+        if (!flat || room >= pa->cap / 4u || hypot(d1[0], d1[1]) <= PK_PATH_MERGE_UM ||
+            r < hypot(d1[0], d1[1]) || delta < e->cone_lo || delta > e->cone_hi)
+            return 0;
+    }
+    /* extend */
+    double old[3];
+    memcpy(old, M, sizeof old);
+    memcpy(e->p.p1, E, sizeof e->p.p1);
+    e->line_last = q->line;
+    if (r > PK_PATH_MERGE_UM) {
+        double half = asin(PK_PATH_MERGE_UM / r);
+        e->cone_lo = fmax(e->cone_lo, delta - half);
+        e->cone_hi = fmin(e->cone_hi, delta + half);
+    }
+    if (exact) {
+        pa->st.merged++;
+    } else {
+        pa->st.merged_approx++;
+        pa->st.approx_um = PK_PATH_MERGE_UM;
+    }
+    for (int i = 0; i < 3; i++) {
+        e->lo[i] = fminf(e->lo[i], nextafterf((float)E[i], -INFINITY));
+        e->hi[i] = fmaxf(e->hi[i], nextafterf((float)E[i], INFINITY));
+    }
+    double elo[3] = { e->lo[0], e->lo[1], e->lo[2] }, ehi[3] = { e->hi[0], e->hi[1], e->hi[2] };
+    box_add(blk_of(pa, seq)->lo, blk_of(pa, seq)->hi, elo);
+    box_add(blk_of(pa, seq)->lo, blk_of(pa, seq)->hi, ehi);
+    box_add(grp_of(pa, seq)->lo, grp_of(pa, seq)->hi, elo);
+    box_add(grp_of(pa, seq)->lo, grp_of(pa, seq)->hi, ehi);
+    pa->win_len_um += hypot(E[0] - old[0], E[1] - old[1]);
+    /* the grid: the new piece, padded by the merge distance (the segment now
+     * lies within it of the pieces registered) */
+    if (pa->grid_on && e->in_grid && grid_piece(pa, seq, old, E, PK_PATH_MERGE_UM) != 0)
+        grid_rebuild(pa);
+    /* the candidate list */
+    if (pa->anchor_ok) {
+        for (unsigned i = 0; i < pa->n_cand; i++)
+            if (pa->cand[i].seq == seq)
+                pa->anchor_ok = 0; /* its distance changed */
+        if (pa->anchor_ok && ent_box_dist(e, pa->anchor, pa->dims) <= pa->r_um) {
+            double d = pk_path_prim_dist(&e->p, pa->anchor, pa->dims, NULL);
+            if (d <= pa->r_um)
+                cand_insert(pa, seq, d);
+        }
+    }
+    memcpy(pa->last_end, E, sizeof pa->last_end);
+    return 1;
+}
+
+void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p_in)
+{
+    struct pk_path_prim pm = *p_in;
+    const struct pk_path_prim *p = &pm;
     pa->st.prims++;
+    if (pa->dims == 2u) {
+        /* the third axis is not measured: keep it out of every computation */
+        pm.p0[2] = pm.p1[2] = pm.c[0][2] = pm.c[1][2] = 0.0;
+        if (p_in->plane != PK_PLANE_XY && p_in->kind == PK_PATH_ARC) {
+            /* an arc out of the XY plane projects onto a line or an ellipse:
+             * keep its exact 3-D definition and measure in 2-D (curve_dist) */
+            pm.p0[2] = p_in->p0[2];
+            pm.p1[2] = p_in->p1[2];
+        }
+    }
     if (p->kind == PK_PATH_LINE && pa->has_last && memcmp(p->p0, p->p1, sizeof p->p0) == 0 &&
         memcmp(p->p0, pa->last_end, sizeof p->p0) == 0)
         return; /* a repeated point: already on the path */
+    if (try_merge(pa, p))
+        return;
     if (pa->head - pa->tail == pa->cap)
         drop_oldest(pa);
     while (pa->win_len_um > PK_PATH_LEN_MAX && pa->tail < pa->released && pa->tail < pa->head)
@@ -864,16 +989,9 @@ void pk_path_add(struct pk_path *pa, const struct pk_path_prim *p)
     struct pk_path_ent *e = ent(pa, seq);
     double lo[3], hi[3];
     e->p = *p;
-    if (pa->dims == 2u) {
-        /* the third axis is not measured: keep it out of every computation */
-        e->p.p0[2] = e->p.p1[2] = e->p.c[0][2] = e->p.c[1][2] = 0.0;
-        if (p->plane != PK_PLANE_XY && p->kind == PK_PATH_ARC) {
-            /* an arc out of the XY plane projects onto a line or an ellipse:
-             * keep its exact 3-D definition and measure in 2-D (curve_dist) */
-            e->p.p0[2] = p->p0[2];
-            e->p.p1[2] = p->p1[2];
-        }
-    }
+    e->line_last = p->line;
+    if (p->kind == PK_PATH_LINE)
+        cone_start(e);
     prim_box(&e->p, lo, hi);
     for (int i = 0; i < 3; i++) {
         e->lo[i] = nextafterf((float)lo[i], -INFINITY);
@@ -1125,12 +1243,16 @@ double pk_path_quantile(const struct pk_path *pa, double q)
 }
 
 /* ---- measuring -------------------------------------------------------------------- */
-static void note_match(struct pk_path *pa, uint64_t seq)
+static void note_match(struct pk_path *pa, uint64_t seq, const double *q)
 {
     pa->cursor = seq;
     if (seq < pa->lag_min_cur)
         pa->lag_min_cur = seq;
-    if (++pa->lag_n >= PK_PATH_LAG_POINTS) {
+    if (pa->lag_n == 0u)
+        memcpy(pa->lag_from, q, sizeof pa->lag_from);
+    ++pa->lag_n;
+    if (pa->lag_n >= PK_PATH_LAG_POINTS ||
+        (pa->lag_n >= 16u && dist2_pts(q, pa->lag_from, pa->dims) >= 1000.0 * 1000.0)) {
         uint64_t m = pa->lag_min_cur < pa->lag_min_prev ? pa->lag_min_cur : pa->lag_min_prev;
         uint64_t r = m > PK_PATH_BACK ? m - PK_PATH_BACK : 0u;
         if (m != SEQ_NONE && r > pa->released)
@@ -1173,7 +1295,7 @@ double pk_path_measure(struct pk_path *pa, const double pt[3], uint64_t tick, ui
         }
     }
     const struct pk_path_ent *e = ent(pa, best.seq);
-    note_match(pa, best.seq);
+    note_match(pa, best.seq, q);
     pa->st.points++;
     hist_add(pa, best.d);
     if (best.d > pa->st.max_um || pa->st.points == 1u) {
@@ -1181,6 +1303,7 @@ double pk_path_measure(struct pk_path *pa, const double pt[3], uint64_t tick, ui
         memcpy(pa->st.max_at_um, q, sizeof q);
         pa->st.max_tick = tick;
         pa->st.max_line = e->p.line;
+        pa->st.max_line_last = e->line_last;
         pa->st.max_drawn = e->p.drawn;
     }
     if (line != NULL)

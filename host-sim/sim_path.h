@@ -15,7 +15,8 @@
  * distance (in the first `dims` axes, µm) from P to the primitive as a point
  * set. The window holds the primitives added so far, up to the last `cap` of
  * them (older ones are dropped only when the window is full, and only once the
- * executed path has provably left them: see "Bounded memory"). As long as no
+ * executed path has provably left them: see "Bounded memory"); straight runs
+ * are held as one segment each (see "Runs"). As long as no
  * primitive was dropped this is exactly the distance from P to the whole path
  * programmed so far; a dropped primitive can only make the figure larger, never
  * smaller (the check is conservative).
@@ -42,13 +43,25 @@
  * small radii, and through a two-level bounding-box hierarchy over the window
  * otherwise; both only ever skip a primitive that cannot be within the radius.
  *
+ * Runs. A straight line that continues the previous one exactly (same
+ * direction, from its end, same pen state) extends it: a line of a million
+ * collinear points is one entry, exact. While the window is short of room
+ * (less than a quarter free), a line that continues the previous one within
+ * PK_PATH_MERGE_UM (every vertex of the run within that distance of the one
+ * segment replacing it, and the segment within it of the run) extends it too;
+ * the figures are then within PK_PATH_MERGE_UM of the exact ones, and
+ * `approx_um` says so. (The firmware may plan a whole straight run as one
+ * block, so a machine can be a whole run of points behind the program.)
+ *
  * Bounded memory. The window is a ring of `cap` primitives (a power of two,
  * PK_PATH_ENTRY_BYTES each, allocated once at init); released entries also
  * go as soon as the window is longer than PK_PATH_LEN_MAX. A zero-length line that
  * starts where the previous primitive ends adds nothing to the point set and is
  * not stored (repeated points cost nothing). When the ring is full the oldest
- * primitive is dropped if it is *released*: older than every primitive matched
- * by the last PK_PATH_LAG_POINTS points, by PK_PATH_BACK primitives, or older
+ * primitive is dropped if it is *released*: older, by PK_PATH_BACK primitives,
+ * than every primitive matched by the points of the last two batches (a batch:
+ * PK_PATH_LAG_POINTS points, or at least 16 points over which the executed path
+ * moved 1 mm, whichever comes first), or older
  * than the newest minus PK_PATH_BACK once the owner has called
  * pk_path_all_executed (the machine is idle: everything added has been run).
  * A primitive that is the same point set as one in the window (a line drawn
@@ -88,6 +101,8 @@
 #define PK_PATH_HIST_MIN_UM 1e-3
 /** Points whose matches hold the oldest primitive (release rule). */
 #define PK_PATH_LAG_POINTS 256u
+/** Distance within which a run of lines may be held as one (µm; see "Runs"). */
+#define PK_PATH_MERGE_UM 1.0
 /** Primitives kept behind the oldest match (release rule). */
 #define PK_PATH_BACK 64u
 /** Default window: primitives (power of two). */
@@ -177,10 +192,14 @@ struct pk_path_stats {
     double max_at_um[3];    /**< the point where it occurred */
     uint64_t max_tick;      /**< the time stamp given with that point */
     uint32_t max_line;      /**< line number of the nearest primitive there (0: none) */
+    uint32_t max_line_last; /**< its last line, if it holds a run of lines (else max_line) */
     uint8_t max_drawn;      /**< pen state of that primitive */
     uint64_t prims;         /**< primitives added (stored or not) */
     uint64_t stored;        /**< primitives stored (zero-length repeats are not) */
     uint64_t repeats;       /**< stored ones that replaced the same point set in the window */
+    uint64_t merged;        /**< lines that extended the previous one exactly */
+    uint64_t merged_approx; /**< lines that extended it within PK_PATH_MERGE_UM */
+    double approx_um;       /**< 0: figures exact as stated; else they are within this */
     uint64_t dropped;       /**< primitives dropped from the full window, released */
     uint64_t forced_drops;  /**< dropped before they were released: figures are upper bounds */
     uint64_t rebuilds;      /**< candidate-list rebuilds (cost diagnostics) */
@@ -193,6 +212,8 @@ struct pk_path_ent {
     uint8_t dead;           /**< a later entry is the same point set (a repeated stroke) */
     uint8_t in_grid;        /**< registered in the grid (else in the long list) */
     uint32_t stamp;         /**< last grid query that visited it */
+    uint32_t line_last;     /**< last line of a run held as this entry */
+    double cone_ref, cone_lo, cone_hi; /**< a line's run: directions its end may take */
 };
 
 /** Private: the grid over X and Y that finds the entries near a point. */
@@ -230,6 +251,7 @@ struct pk_path {
     /* release rule */
     uint64_t lag_min_cur, lag_min_prev; /* smallest matched seq in this / the previous batch */
     unsigned lag_n;
+    double lag_from[3];               /* executed point where the batch began */
     uint64_t released;                /* entries below this seq may be dropped */
     /* candidate list around the anchor */
     int anchor_ok;

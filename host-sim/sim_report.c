@@ -95,10 +95,19 @@ static void limits_line(FILE *f, const struct pk_sim_result *r, unsigned axes)
 static void deviation_line(FILE *f, const char *label, const struct pk_path *p, double tick_hz)
 {
     const struct pk_path_stats *s = &p->st;
-    fprintf(f, "  %-17s max %.4f mm at X%.3f Y%.3f Z%.3f (t=%.3f s, line %u, %s); 95%% within %.4f mm\n",
-            label, s->max_um / 1000.0, s->max_at_um[0] / 1000.0, s->max_at_um[1] / 1000.0,
-            s->max_at_um[2] / 1000.0, (double)s->max_tick / tick_hz, (unsigned)s->max_line,
-            s->max_drawn ? "stroke" : "travel", pk_path_quantile(p, 0.95) / 1000.0);
+    char lines[48];
+    if (s->max_line_last > s->max_line)
+        snprintf(lines, sizeof lines, "lines %u-%u", (unsigned)s->max_line, (unsigned)s->max_line_last);
+    else
+        snprintf(lines, sizeof lines, "line %u", (unsigned)s->max_line);
+    fprintf(f, "  %-17s max %.4f mm at X%.3f Y%.3f Z%.3f (t=%.3f s, %s, %s); 95%% within %.4f mm\n", label,
+            s->max_um / 1000.0, s->max_at_um[0] / 1000.0, s->max_at_um[1] / 1000.0, s->max_at_um[2] / 1000.0,
+            (double)s->max_tick / tick_hz, lines, s->max_drawn ? "stroke" : "travel",
+            pk_path_quantile(p, 0.95) / 1000.0);
+    if (s->approx_um > 0.0)
+        fprintf(f, "                    (the window ran short of room: straight runs were held within %.4f mm, "
+                   "so are these figures)\n",
+                s->approx_um / 1000.0);
     if (s->forced_drops > 0u)
         fprintf(f, "                    (%llu primitives left the window before the machine was past them: "
                    "these are upper bounds)\n",

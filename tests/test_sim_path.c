@@ -474,8 +474,9 @@ static void test_a_small_window_keeps_what_the_machine_has_not_passed(void)
                 waited++;
                 break;
             }
-            /* an outward spiral of 1..100 µm chords: never near its past */
-            double th = 0.0005 * (double)n, r = 5000 + 3.0 * (double)n;
+            /* an outward spiral of 3..100 µm chords that zig-zags by 30 µm
+             * (no run of them is straight): never near its past */
+            double th = 0.0005 * (double)n, r = 5000 + 3.0 * (double)n + (n % 2 ? 30.0 : 0.0);
             double e[3] = { r * cos(th), r * sin(th), 0 };
             pk_path_line(&all[n], prev, e);
             all[n].line = (uint32_t)n + 1u;
@@ -508,6 +509,63 @@ static void test_a_small_window_keeps_what_the_machine_has_not_passed(void)
 
 /* A producer that does not wait: the drops are counted, and a figure can
  * then only be larger than the distance to the whole path, never smaller. */
+/*
+ * Runs: a million collinear points 1 µm apart are one entry (exact), however
+ * far behind the points are; a slanted line of points rounded to the µm,
+ * added while the window is short of room, is held within PK_PATH_MERGE_UM.
+ */
+static void test_straight_runs_of_points_are_held_as_one_segment(void)
+{
+    static struct pk_path pa;
+    TH_ASSERT_EQ(pk_path_init(&pa, 2, 1024, 12.5), 0);
+    double prev[3] = { 0, 10000, 0 };
+    for (int i = 1; i <= 1000000; i++) {
+        double e[3] = { (double)i, 10000, 0 };
+        struct pk_path_prim p;
+        pk_path_line(&p, prev, e);
+        p.line = (uint32_t)i;
+        pk_path_add(&pa, &p);
+        memcpy(prev, e, sizeof e);
+    }
+    TH_EXPECT_EQ(pa.st.stored, 1u);
+    TH_EXPECT_EQ(pa.st.merged, 999999u);
+    TH_EXPECT(pa.st.approx_um == 0.0);
+    double q[3] = { 123456.5, 10003.25, 0 };
+    uint32_t line;
+    TH_EXPECT(pk_path_measure(&pa, q, 0, &line, NULL) == 3.25);
+    TH_EXPECT_EQ(line, 1u);
+    TH_EXPECT_EQ(pa.st.max_line_last, 1000000u);
+    pk_path_free(&pa);
+
+    /* slanted, rounded, in a window kept short of room (the points lag 900 behind) */
+    static struct pk_path_prim all[20001];
+    TH_ASSERT_EQ(pk_path_init(&pa, 2, 1024, 12.5), 0);
+    double cur[3] = { 0, 0, 0 };
+    unsigned bad = 0;
+    for (int i = 1; i <= 20000; i++) {
+        double e[3] = { (double)i, (double)lround(0.37 * i), 0 };
+        pk_path_line(&all[i], cur, e);
+        pk_path_add(&pa, &all[i]);
+        memcpy(cur, e, sizeof e);
+        if (i > 900 && i % 7 == 0) {
+            double q2[3];
+            pk_path_prim_eval(&all[i - 900], urand(), q2);
+            q2[0] += srand_(-8, 8);
+            q2[1] += srand_(-8, 8);
+            double got = pk_path_measure(&pa, q2, 0, NULL, NULL), want = INFINITY;
+            for (int j = i > 1900 ? i - 1900 : 1; j <= i; j++)
+                want = fmin(want, ref_seg(all[j].p0, all[j].p1, q2, 2));
+            if (!(fabs(got - want) <= PK_PATH_MERGE_UM + 1e-9) && bad++ < 3)
+                printf("    slanted %d: got %.4f want %.4f\n", i, got, want);
+        }
+    }
+    TH_EXPECT_EQ(bad, 0);
+    TH_EXPECT(pa.st.merged_approx > 0u);
+    TH_EXPECT(pa.st.approx_um == PK_PATH_MERGE_UM);
+    TH_EXPECT_EQ(pa.st.forced_drops, 0);
+    pk_path_free(&pa);
+}
+
 static void test_forced_drops_are_counted_and_only_make_figures_larger(void)
 {
     static struct pk_path pa;
@@ -589,6 +647,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_the_matcher_gives_the_brute_force_distance_at_every_point),
         TH_CASE(test_hatches_and_scribbles_through_the_grid_match_brute_force),
         TH_CASE(test_a_small_window_keeps_what_the_machine_has_not_passed),
+        TH_CASE(test_straight_runs_of_points_are_held_as_one_segment),
         TH_CASE(test_forced_drops_are_counted_and_only_make_figures_larger),
         TH_CASE(test_a_stroke_drawn_many_times_is_matched_once),
         TH_CASE(test_points_before_any_primitive_are_counted_unmatched),
