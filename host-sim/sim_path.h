@@ -13,12 +13,12 @@
  * Definition. The deviation of a point P is its distance to the reference path
  * held in the window: min over the primitives of the window of the Euclidean
  * distance (in the first `dims` axes, µm) from P to the primitive as a point
- * set. The window holds the primitives added so far, up to the last `cap` of
- * them (older ones are dropped only when the window is full, and only once the
- * executed path has provably left them: see "Bounded memory"); straight runs
- * are held as one segment each (see "Runs"). As long as no
- * primitive was dropped this is exactly the distance from P to the whole path
- * programmed so far; a dropped primitive can only make the figure larger, never
+ * set. The window holds every primitive added so far, except that old ones
+ * the executed path has provably left (see "Bounded memory") are dropped once
+ * the window holds `cap` entries or PK_PATH_LEN_MAX of path. So on a program
+ * of up to 65,536 entries and 50 m (straight runs count as one entry: "Runs")
+ * the figure is exactly the distance to the whole path programmed so far;
+ * beyond, to its recent part, which can only make the figure larger, never
  * smaller (the check is conservative).
  *
  * Accuracy. Lines and planar circular arcs are evaluated in closed form
@@ -53,17 +53,18 @@
  * `approx_um` says so. (The firmware may plan a whole straight run as one
  * block, so a machine can be a whole run of points behind the program.)
  *
- * Bounded memory. The window is a ring of `cap` primitives (a power of two,
- * PK_PATH_ENTRY_BYTES each, allocated once at init); released entries also
- * go as soon as the window is longer than PK_PATH_LEN_MAX. A zero-length line that
- * starts where the previous primitive ends adds nothing to the point set and is
- * not stored (repeated points cost nothing). When the ring is full the oldest
- * primitive is dropped if it is *released*: older, by PK_PATH_BACK primitives,
- * than every primitive matched by the points of the last two batches (a batch:
- * PK_PATH_LAG_POINTS points, or at least 16 points over which the executed path
- * moved 1 mm, whichever comes first), or older
- * than the newest minus PK_PATH_BACK once the owner has called
- * pk_path_all_executed (the machine is idle: everything added has been run).
+ * Bounded memory. The window is a ring of `cap` entries (a power of two,
+ * PK_PATH_ENTRY_BYTES each) plus a grid of fixed size, all allocated at init;
+ * nothing grows afterwards. A zero-length line that starts where the previous
+ * primitive ends adds nothing to the point set and is not stored (repeated
+ * points cost nothing). An entry is *released* once it is older, by
+ * PK_PATH_BACK entries, than every entry matched by the points of the last two
+ * batches (a batch: PK_PATH_LAG_POINTS points, or 16 points or more over which
+ * the executed path moved 1 mm), or, once the owner calls
+ * pk_path_all_executed (the machine is idle: everything added has run), older
+ * than the newest by PK_PATH_BACK. Only released entries are dropped: the
+ * oldest when the ring is full, and as many as needed while the window holds
+ * more than PK_PATH_LEN_MAX of path (long strokes need no deep window).
  * A primitive that is the same point set as one in the window (a line drawn
  * again, either way, or the same curve again: multi-pass and back-and-forth
  * drawing) replaces it: the older entry is skipped from then on, so a stroke
