@@ -146,6 +146,21 @@ static void json_path(FILE *f, const char *prefix, const struct pk_path *p, doub
             prefix, (unsigned long long)s->forced_drops);
 }
 
+/* Peak resident memory of this process so far (Linux VmHWM), kB; -1 if unknown. */
+static long vm_hwm_kb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kb = -1;
+    if (f == NULL)
+        return -1;
+    while (fgets(line, sizeof line, f) != NULL)
+        if (strncmp(line, "VmHWM:", 6) == 0)
+            kb = strtol(line + 6, NULL, 10);
+    fclose(f);
+    return kb;
+}
+
 static void print_json(FILE *f, const char *file, const struct pk_sim_result *r, unsigned axes)
 {
     double fmm[PK_AXES];
@@ -207,7 +222,7 @@ static void print_json(FILE *f, const char *file, const struct pk_sim_result *r,
     json_str(f, r->job.alarms ? pk_sim_alarm_name(r->job.alarm) : "");
     fputs(",\n  \"alarm_text\": ", f);
     json_str(f, r->job.alarm_text);
-    fprintf(f, ",\n  \"pin_edges\": %zu\n}\n", r->hw.trace.n);
+    fprintf(f, ",\n  \"pin_edges\": %zu,\n  \"vm_hwm_kb\": %ld\n}\n", r->hw.trace.n, vm_hwm_kb());
 }
 
 /* ---- the program: a G-code file is mapped and its pages let go as the job
