@@ -219,7 +219,8 @@ int pk_sim_ref_point(struct pk_sim_result *r, const double p_um[3], int new_stro
 {
     if (!r->ref_on) {
         unsigned dims = r->opts.cfg->axes < 3u ? 2u : 3u;
-        if (pk_path_init(&r->ref, dims, 0, min_step_um(&r->mcfg, r->opts.cfg->axes)) != 0) {
+        /* half the programmed path's window: both together stay well under 64 MB */
+        if (pk_path_init(&r->ref, dims, PK_PATH_CAP_DEFAULT / 2u, min_step_um(&r->mcfg, r->opts.cfg->axes)) != 0) {
             pk_path_free(&r->ref);
             return -1;
         }

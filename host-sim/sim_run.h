@@ -134,8 +134,10 @@ double pk_sim_steps_to_um(const struct pk_sim_result *r, unsigned a, int64_t ste
  * The second reference path (e.g. the firmware's smoothed curve): one more
  * point of it, µm (X Y Z); new_stroke 1 starts a separate piece (no segment
  * from the previous point). Segments of it are matched like the programmed
- * path (sim_path.h) and reported as "vs smoothed curve". Returns 0, or -1 if
- * its window could not be allocated. MAIN, during the run.
+ * path (sim_path.h; a window of 32,768 entries) and reported as "vs smoothed
+ * curve". Returns 0, or -1 if its window could not be allocated. MAIN, during
+ * the run. Memory: up to about 26 MB for the programmed path's window and grid
+ * and 19 MB for this one, touched as they fill.
  */
 int pk_sim_ref_point(struct pk_sim_result *r, const double p_um[3], int new_stroke, uint32_t line);
 
