@@ -78,26 +78,36 @@ static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
  * at tau (ticks Q16). The segment really accelerates (or decelerates)
  * uniformly from v0 to v1, which puts the point later (earlier) by
  *     eps = a tau (T - tau) / (2 v(tau)),   a = (v1 - v0) / T,
- * i.e. with r = |v1 - v0| / vseg: eps = r tau (T - tau) / (2 T) . vseg / v(tau),
- * and vseg / v(tau) = 1 -+ r (2 tau - T) / 2T to first order (the rest is
+ * i.e. with r = |v1 - v0| / vseg and u = tau / T:
+ *     eps = r T u (1 - u) / 2 . vseg / v(tau),
+ * and vseg / v(tau) = 1 -+ r (2u - 1) / 2 to first order (the rest is
  * second order in r, the speed's relative change over one segment: a few
  * percent). Without it the events next to a segment boundary are off by up
  * to r T / 8 against the interval ramp inside the segment: a jolt at every
  * boundary.
- * Ranges: t (T - t) < 2^28 (T < 2^14 + 2^13), invT_q30 < 2^31, so x_q16 =
- * t (T - t) / T Q16 < 2^28; r_q15 <= 2^16; eps < r T / 8 < 2^28 (Q16). */
+ * All in 32-bit products (an 8-bit chip's 64-bit multiply costs ~430
+ * cycles): t < T < 2^15 + 2^14, so t invT_q30 = 2^30 t / T < 2^30 and
+ * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
+ * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
+ * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
 static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
     uint32_t t = (uint32_t)(tau >> 16);
     if (T == 0 || t >= T || r_q15 == 0)
         return tau;
-    uint32_t x_q16 = (uint32_t)(((uint64_t)(t * (T - t)) * invT_q30) >> 14);
-    uint32_t eps = (uint32_t)(((uint64_t)r_q15 * x_q16) >> 16);
-    uint32_t k = (uint32_t)(((uint64_t)eps * r_q15) >> 15);
-    uint32_t dist = 2u * t > T ? 2u * t - T : T - 2u * t;
-    uint32_t m_q16 = (uint32_t)(((uint64_t)dist * invT_q30) >> 14);
-    uint32_t fix = (uint32_t)(((uint64_t)k * m_q16) >> 17);
-    if ((2u * t > T) == accel)
+    if (r_q15 > 0xFFFFu)
+        r_q15 = 0xFFFFu;
+    uint32_t u_q16 = (t * invT_q30) >> 14;
+    uint32_t w_q16 = (uint32_t)(uint16_t)u_q16 * (uint16_t)(0x10000u - u_q16) >> 16;
+    uint32_t eps = (((r_q15 * w_q16) >> 14) * T) >> 2;
+    /* first-order term: eps r |2u - 1| / 2 = (eps / 2^12) (r m / 2^20),
+     * m_q16 = |2u - 1| */
+    uint32_t m_q16 = 2u * u_q16 > 0x10000u ? 2u * u_q16 - 0x10000u : 0x10000u - 2u * u_q16;
+    if (m_q16 > 0xFFFFu)
+        m_q16 = 0xFFFFu;
+    uint32_t k = ((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16) >> 20;   /* Q11 */
+    uint32_t fix = (eps >> 12) * k;
+    if ((2u * u_q16 > 0x10000u) == accel)
         eps = eps > fix ? eps - fix : 0u;
     else
         eps += fix;
@@ -130,6 +140,7 @@ static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
     if (b->v2_exit != sg->c_v2_exit) {
         sg->c_v2_exit = b->v2_exit;
         sg->ve_q4 = pk_isqrt64(b->v2_exit << 4);
+        sg->ve_sq = sq64(sg->ve_q4);
     }
 }
 
@@ -318,7 +329,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4;
     const uint32_t two_a = 2u * (uint32_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8, < 2^31 */
     const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
-    const uint64_t v02 = sq64(v0), ve2 = sq64(ve);
+    const uint64_t v02 = sg->v_sq, ve2 = sg->hold ? 0u : sg->ve_sq;
     /* the speed^2 the end of the block allows here: the line
      * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
     const uint64_t line0 = ve2 + (uint64_t)two_a * (L - s0);
@@ -333,6 +344,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
             lv--;
     const uint32_t dv = sg->dv_q4 << lv, g_q24 = sg->g_q24 << lv;
     uint32_t v1, ds;
+    uint64_t v12 = 0;      /* v1^2 once known (0: not yet) */
     bool full = true;   /* a whole segment of seg_ticks (else a phase ends inside) */
     if (sg->hold || (v02 >= line0 && v0 > ve) || v0 > sg->vn_q4) {
         /* decelerate: towards the exit (on the line), the nominal (an
@@ -366,7 +378,8 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         if (ds == 0)
             ds = 1;
         uint32_t se = s0 + ds < L ? s0 + ds : L;
-        if (sq64(v1) > ve2 + (uint64_t)two_a * (L - se)) {
+        v12 = sq64(v1);
+        if (v12 + (uint64_t)two_a * (se - s0) > line0) {
             /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
              * line: accelerate (or cruise) until there */
             uint64_t d;
@@ -382,6 +395,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
             v1 = v1 > v0 ? pk_isqrt64(v02 + (uint64_t)two_a * ds) : v0;
             if (v1 > sg->vn_q4)
                 v1 = sg->vn_q4;
+            v12 = 0;
             full = false;
         }
     }
@@ -401,6 +415,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         if (v1 < v0 && vl < v1)
             vl = v1;
         v1 = vl;
+        v12 = 0;
         full = false;
     }
     /* The segment's duration from its length (not the nominal seg_ticks: ds
@@ -458,12 +473,17 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
             uint32_t span = (uint32_t)(t_last - t_first);
             uint32_t mean = span / (n - 1u);
             if (n > 2 && v0 != v1) {
-                uint32_t ch = (uint32_t)(((uint64_t)mean * r_q15) >> 15);
+                /* ch = mean r (Q16), per = mean / T (Q16), a = ch per: in
+                 * 16x16 products (mean < 2^31, r_q15 <= 2^16 - 1, per <= 2^16) */
+                const uint32_t r16 = r_q15 > 0xFFFFu ? 0xFFFFu : r_q15;
+                uint32_t ch = ((mean >> 16) * r16 << 1)
+                              + ((uint32_t)(uint16_t)mean * (uint16_t)r16 >> 15);
                 if (ch > mean)
                     ch = mean;
-                /* mean / T in Q16 (mean Q16, T whole ticks) */
-                uint32_t per = (uint32_t)(((uint64_t)mean * invT) >> 30);
-                int32_t a = (int32_t)(((uint64_t)ch * per) >> 16);
+                uint32_t per = ((mean >> 16) * invT) >> 14;
+                if (per > 0x10000u)
+                    per = 0x10000u;
+                int32_t a = (int32_t)((ch >> 16) * per + (((ch & 0xFFFFu) * per) >> 16));
                 A = v1 > v0 ? -a : a;
             }
             /* c1 = mean - ceil(A n / 2); the ramp's sum is within n of span
@@ -482,7 +502,8 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     sg->ev_next = pos;
     sg->ev_rem = prem;
     sg->v_q4 = v1;
-    sg->v2 = sq64(v1) >> 4;   /* Q4 speed^2 for the planner */
+    sg->v_sq = v12 ? v12 : sq64(v1);
+    sg->v2 = sg->v_sq >> 4;   /* Q4 speed^2 for the planner */
     sg->e = e;
     sg->s_q8 = s1;
     if (sg->hold && v1 == 0)
@@ -523,6 +544,7 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
             pk_mq_pop(q);
             max_blocks--;
             sg->v2 = 0;
+            sg->v_sq = 0;
             sg->v_q4 = 0;
             sg->carry_q16 = 0;
             added = true;
@@ -563,6 +585,7 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
         sg->e = 0;
         sg->s_q8 = 0;
         sg->v2 = 0;
+        sg->v_sq = 0;
         sg->v_q4 = 0;
         sg->carry_q16 = 0;
         return 1;
@@ -584,6 +607,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->e = 0;
     sg->s_q8 = 0;
     sg->v2 = 0;
+    sg->v_sq = 0;
     sg->v_q4 = 0;
     sg->carry_q16 = 0;
     sg->phase = PK_SGP_GAP;

@@ -114,6 +114,8 @@ struct pk_stepgen {
     uint32_t s_q8;             /**< prepared distance into the tail block, µm Q8 */
     uint32_t v_q4;             /**< speed there, µm/s Q4 */
     pk_v2_q4_t v2;             /**< the same squared, Q4 */
+    uint64_t v_sq;             /**< v_q4 squared ((µm/s)^2 Q8) */
+    uint64_t ve_sq;            /**< ve_q4 squared */
     pk_v2_q4_t v2_blk;         /**< speed^2 at the tail block's start (what the planner sees) */
     bool off_plan;             /**< a hold came during the tail block: the planner sees
                                     the real position instead */
