@@ -465,6 +465,58 @@ static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
     return 0;
 }
 
+/* ------------------------------------------------------------ inputs */
+
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t lv, int level)
+{
+    uint32_t old = sg->in_now;
+    sg->in_now = (uint16_t)lv;
+    sg->in_rise = (uint16_t)(sg->in_rise | (lv & ~old));
+    uint8_t w = sg->watch;
+    if (w == 0u)
+        return;
+    if ((w & PK_SGW_LIMITS) != 0u && ((level ? lv : lv & ~old) & PK_IN_LIMITS) != 0u)
+        sg->fired |= PK_SGW_LIMITS;
+    if ((w & PK_SGW_PROBE) != 0u && (sg->fired & PK_SGW_PROBE) == 0u
+        && ((lv >> PK_IN_PROBE) & 1u) == sg->probe_level) {
+        for (unsigned i = 0; i < PK_AXES; i++)
+            sg->probe_pos[i] = sg->pos[i];
+        sg->fired |= PK_SGW_PROBE;
+    }
+    if ((w & PK_SGW_HOME) != 0u) {
+        sg->lock |= (uint8_t)(lv & sg->home_axes);
+        if ((sg->lock & sg->home_axes) == sg->home_axes)
+            sg->fired |= PK_SGW_HOME;
+    }
+}
+
+/* A watch is armed: read the inputs where the board reports no edges, and at
+ * a line block's start (a switch already active when a move starts), then say
+ * whether the step output must stop here. */
+static int watch_stop(struct pk_stepgen *sg, const struct pk_hal *hal, int block_start)
+{
+    if (sg->poll_in || block_start) {
+        uint32_t lv;
+        if (pk_hal_input_read(hal, &lv) != 0) {
+            sg->alarm = PK_ALARM_INPUT_READ;
+            return 1;
+        }
+        pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    }
+    return (sg->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u;
+}
+
+/* Stop at once for a watch: nothing more is emitted; a hard limit latches
+ * its alarm, a completed homing move only stops (MAIN drops the rest). */
+static uint64_t isr_watch_stop(struct pk_stepgen *sg)
+{
+    if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
+        sg->alarm = PK_ALARM_HARD_LIMIT;
+    sg->v_um_s = 0u;
+    sg->busy = false;
+    return 0;
+}
+
 uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now)
 {
     const uint32_t all = (1u << sg->axes) - 1u;
@@ -483,6 +535,11 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
+        }
+        if (sg->watch != 0u) {
+            if (watch_stop(sg, hal, 0))
+                return isr_watch_stop(sg);
+            mask &= ~(uint32_t)sg->lock;
         }
         if (pk_hal_step_write(hal, all, mask) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
@@ -516,6 +573,8 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (sg->watch != 0u && watch_stop(sg, hal, c->kind == PK_SGC_BLOCK))
+            return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:
             if (c->spindle != sg->spindle_cur) {
