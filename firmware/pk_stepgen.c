@@ -490,21 +490,23 @@ void pk_sg_inputs(struct pk_stepgen *sg, uint32_t lv, int level)
     }
 }
 
-/* A watch is armed: read the inputs where the board reports no edges, and at
- * a line block's start (a switch already active when a move starts), then say
- * whether the step output must stop here. */
-static int watch_stop(struct pk_stepgen *sg, const struct pk_hal *hal, int block_start)
+/* A watch is armed and the inputs must be read (a board without edge
+ * reports, or a line block's start: a switch already active when a move
+ * starts): read them into the watches. 0, or -1 if the read failed (alarm
+ * latched). */
+static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
 {
-    if (sg->poll_in || block_start) {
-        uint32_t lv;
-        if (pk_hal_input_read(hal, &lv) != 0) {
-            sg->alarm = PK_ALARM_INPUT_READ;
-            return 1;
-        }
-        pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    uint32_t lv;
+    if (pk_hal_input_read(hal, &lv) != 0) {
+        sg->alarm = PK_ALARM_INPUT_READ;
+        return -1;
     }
-    return (sg->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u;
+    pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    return 0;
 }
+
+/* The watches that stop the output at once have fired. */
+#define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
 
 /* Stop at once for a watch: nothing more is emitted; a hard limit latches
  * its alarm, a completed homing move only stops (MAIN drops the rest). */
@@ -537,7 +539,7 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             }
         }
         if (sg->watch != 0u) {
-            if (watch_stop(sg, hal, 0))
+            if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
                 return isr_watch_stop(sg);
             mask &= ~(uint32_t)sg->lock;
         }
@@ -573,7 +575,9 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (sg->watch != 0u && watch_stop(sg, hal, c->kind == PK_SGC_BLOCK))
+        if (sg->watch != 0u
+            && (((sg->poll_in || c->kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0)
+                || WATCH_STOP(sg)))
             return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:

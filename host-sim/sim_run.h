@@ -40,6 +40,9 @@ struct pk_sim_opts {
     pk_sim_main_fn main_fn;
     void *main_arg;
     int no_path;                    /**< 1: keep no executed path (memory stays flat) */
+    const struct pk_sim_input *inputs; /**< scripted input edges and switches (sim_machine.h) */
+    size_t n_inputs;
+    int hard_limits;                /**< 1: hard limits on from the start ($21=1) */
 };
 
 /** A point of the executed path kept for drawing (thinned to 0.1 mm). */
