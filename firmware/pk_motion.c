@@ -191,7 +191,7 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     if (cfg == NULL || check_cfg(cfg, m->hal->tick_hz) != 0)
         return PK_MOTION_EINVAL;
     enum pk_machine_state st = pk_machine_state(m);
-    if (st != PK_STATE_IDLE && st != PK_STATE_ALARM)
+    if ((st != PK_STATE_IDLE && st != PK_STATE_ALARM) || m->cycle != CYC_NONE)
         return PK_MOTION_EBUSY;
     if (st == PK_STATE_ALARM && (m->sg.busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
                                  || m->inq_count > 0 || pk_stroke_is_open(&m->stroke)))

@@ -277,7 +277,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
  * @retval PK_MOTION_OK      applied
  * @retval PK_MOTION_EINVAL  a setting is out of range; nothing changed
  * @retval PK_MOTION_EBUSY   not IDLE or ALARM (motion, queue or requests
- *                           pending); nothing changed
+ *                           pending, or a probing / homing move); nothing changed
  * Calling context: MAIN.
  */
 int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
