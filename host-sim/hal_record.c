@@ -104,6 +104,8 @@ static int in_read(void *c, uint32_t *raw)
 static int in_watch(void *c, pk_hal_input_cb cb, void *arg)
 {
     struct pk_rec *r = c;
+    if (!r->in_edges)
+        return PK_HAL_ENOSYS; /* a board that cannot report edges */
     r->in_cb = cb;
     r->in_arg = arg;
     return PK_HAL_OK;
@@ -126,21 +128,7 @@ static const struct pk_hal_ops rec_ops = {
     .irq_save = irq_save,
     .irq_restore = irq_restore,
 };
-/* The same without edge reports. */
-static const struct pk_hal_ops rec_ops_no_edges = {
-    .version = PK_HAL_VERSION,
-    .step_write = step_w,
-    .dir_write = dir_w,
-    .enable_write = en_w,
-    .tool_write = tool_w,
-    .spindle_write = spindle_w,
-    .input_read = in_read,
-    .timer_start = t_start,
-    .timer_stop = t_stop,
-    .clock_ticks = clk,
-    .irq_save = irq_save,
-    .irq_restore = irq_restore,
-};
+
 
 void pk_rec_init(struct pk_rec *r, uint32_t tick_hz)
 {
@@ -156,7 +144,7 @@ void pk_rec_init(struct pk_rec *r, uint32_t tick_hz)
 
 void pk_rec_inputs(struct pk_rec *r, uint32_t inputs, uint32_t invert, int edges)
 {
-    r->hal.ops = edges ? &rec_ops : &rec_ops_no_edges;
+    r->in_edges = edges != 0;
     r->hal.inputs = inputs;
     r->hal.input_invert = invert;
     r->in_raw = invert & inputs;

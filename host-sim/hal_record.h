@@ -17,7 +17,7 @@
  * callback as a pin-change interrupt would: a scripted edge at its tick
  * (before a timer callback due at the same tick), a switch right after the
  * timer callback whose step moved it (never inside it). Without edges
- * (edges = 0) the HAL has no input_watch and the core reads the levels.
+ * (edges = 0) input_watch answers PK_HAL_ENOSYS and the core reads the levels.
  */
 #ifndef PLOTKIN_HAL_RECORD_H
 #define PLOTKIN_HAL_RECORD_H
@@ -71,6 +71,7 @@ struct pk_rec {
     /* inputs (pk_rec_inputs) */
     int64_t pos[PK_HAL_MAX_AXES]; /* axis positions decoded from the step/dir writes */
     uint32_t in_raw;              /* raw input levels now */
+    int in_edges;                 /* input_watch works (else it answers PK_HAL_ENOSYS) */
     pk_hal_input_cb in_cb;        /* registered edge callback, or NULL */
     void *in_arg;
     int in_pending;               /* a switch changed inside a timer callback */

@@ -25,12 +25,17 @@ static int fail_errno(void)
     return e > 0 ? -e : -EIO;
 }
 
+static void lines_bulk(void *const *lines, unsigned n, struct gpiod_line_bulk *bulk)
+{
+    gpiod_line_bulk_init(bulk);
+    for (unsigned i = 0; i < n; i++)
+        gpiod_line_bulk_add(bulk, (struct gpiod_line *)lines[i]);
+}
+
 static void group_bulk(const struct pk_gpiod_port *p, enum pk_gpiod_group g,
                        struct gpiod_line_bulk *bulk)
 {
-    gpiod_line_bulk_init(bulk);
-    for (unsigned i = 0; i < p->n[g]; i++)
-        gpiod_line_bulk_add(bulk, (struct gpiod_line *)p->line[g][i]);
+    lines_bulk(p->line[g], p->n[g], bulk);
 }
 
 int pk_gpiod_port_open(struct pk_gpiod_port *p, const char *desc)
@@ -81,9 +86,7 @@ int pk_gpiod_port_set(struct pk_gpiod_port *p, enum pk_gpiod_group g, const int 
 
 static void input_bulk(const struct pk_gpiod_port *p, struct gpiod_line_bulk *bulk)
 {
-    gpiod_line_bulk_init(bulk);
-    for (unsigned i = 0; i < p->n_in; i++)
-        gpiod_line_bulk_add(bulk, (struct gpiod_line *)p->in_line[i]);
+    lines_bulk(p->in_line, p->n_in, bulk);
 }
 
 int pk_gpiod_port_request_inputs(struct pk_gpiod_port *p, const uint32_t *offsets, unsigned n,
