@@ -564,9 +564,35 @@ static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
 /* The watches that stop the output at once have fired. */
 #define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
 
+/* The watch paths stay out of line: with none armed the step path pays only
+ * its byte test, not the registers their code would take; armed with nothing
+ * to do (hard limits on a board with edge reports, no switch closed), a few
+ * more byte tests and no call. */
+#if defined(__GNUC__) || defined(__clang__)
+#define SG_COLD __attribute__((noinline, cold))
+#else
+#define SG_COLD
+#endif
+
+/* A step event with a watch armed: the axes still to step (homing's locked
+ * ones dropped), or -1: stop before this event. */
+static SG_COLD int32_t watch_event(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t mask)
+{
+    if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
+        return -1;
+    return (int32_t)(mask & ~(uint32_t)sg->lock);
+}
+
+/* A chunk about to run with a watch armed (kind: its enum pk_sg_chunk_kind):
+ * 1 = stop before it. */
+static SG_COLD int watch_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t kind)
+{
+    return ((sg->poll_in || kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0) || WATCH_STOP(sg);
+}
+
 /* Stop at once for a watch: nothing more is emitted; a hard limit latches
  * its alarm, a completed homing move only stops (MAIN drops the rest). */
-static uint64_t isr_watch_stop(struct pk_stepgen *sg)
+static SG_COLD uint64_t isr_watch_stop(struct pk_stepgen *sg)
 {
     if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
         sg->alarm = PK_ALARM_HARD_LIMIT;
@@ -594,10 +620,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 mask |= 1u << i;
             }
         }
-        if (sg->watch != 0u) {
-            if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
+        /* armed, and something to do: inputs to read, a watch fired, an axis locked */
+        if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
+            int32_t w = watch_event(sg, hal, mask);
+            if (w < 0)
                 return isr_watch_stop(sg);
-            mask &= ~(uint32_t)sg->lock;
+            mask = (uint32_t)w;
         }
         if (pk_hal_step_write(hal, all, mask) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
@@ -631,9 +659,7 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (sg->watch != 0u
-            && (((sg->poll_in || c->kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0)
-                || WATCH_STOP(sg)))
+        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind))
             return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:
