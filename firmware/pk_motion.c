@@ -344,6 +344,10 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     for (uint32_t i = 0; i < axes_of(m); i++)
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
+    /* full: say so before the envelope below (a sender retries a refused
+     * move on every poll until there is room) */
+    if (m->inq_count >= PK_MACHINE_INQ)
+        return PK_MOTION_EFULL;
     {
         int64_t lo[PK_AXES], hi[PK_AXES];
         bool dlg = kind == PK_MOVE_FEED && policy_overshoots(&m->acc_policy);

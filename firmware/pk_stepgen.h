@@ -45,6 +45,18 @@
 #include "hal.h"
 #include "pk_mq.h"
 
+/** Segments of 2 ms may be doubled this many times (to 8 ms) while the speed
+ * changes slowly enough (PK_SG_RAMP_SHIFT) or not at all: fewer segments to
+ * prepare per second at speed. */
+#ifndef PK_SG_SEG_LEVELS
+#define PK_SG_SEG_LEVELS 2u
+#endif
+/** A segment is doubled only while its speed change is at most 2^-this of
+ * the speed (the interval ramp's model error is second order in it). */
+#ifndef PK_SG_RAMP_SHIFT
+#define PK_SG_RAMP_SHIFT 4u
+#endif
+
 /** Chunks buffered ahead of the timer (power of two). */
 #ifndef PK_SG_CHUNKS
 #define PK_SG_CHUNKS 16
@@ -129,6 +141,10 @@ struct pk_stepgen {
     uint32_t g_q24;            /**< a segment's distance per unit of speed sum (µm Q8
                                     per µm/s Q4, Q24) */
     uint32_t dv_q4;            /**< speed change per segment at the block's accel, Q4 */
+    uint32_t invT_q30;         /**< 2^30 / seg_ticks */
+    uint8_t lvl_max;           /**< the block's segments may be seg_ticks << 0..this */
+    uint32_t ev_q, ev_r;       /**< the block's event spacing L / M: quotient, remainder */
+    uint32_t ev_next, ev_rem;  /**< position of the next event (µm Q8) and its remainder */
     uint32_t vn_q4, ve_q4;     /**< the block's nominal and exit speed, Q4 ... */
     pk_v2_q4_t c_v2_nom, c_v2_exit; /**< ... cached for these planned squares */
 
@@ -157,8 +173,15 @@ struct pk_stepgen {
                                     time, then stops (finding M2) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
     uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
-    uint64_t tick_q12;         /**< tick_hz * 2^12 */
+    uint64_t tick_num;         /**< tick_hz * 2^13 (segment clocks) */
+    uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
+    uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
+    uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
+    uint32_t kdv_q24;          /**< seg_max * 16 / tick_hz, Q24: dv_q4 = accel * this */
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    volatile uint16_t late;    /**< events that found their time passed by more than their
+                                    interval and moved the schedule (ISR counts; a
+                                    diagnostic: 0 whenever the main loop keeps up) */
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */

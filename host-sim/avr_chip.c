@@ -351,7 +351,9 @@ static void step(struct pk_avrchip *c)
         c->sp_min = sp;
     uint8_t depth = avr->interrupts.running_ptr;
     uint8_t cur = c->n_frames ? c->frames[c->n_frames - 1].vec : 0xFFu;
-    if (depth0 > 0 && c->hist != NULL && cur == c->b->step_vector && pc0 / 2u < c->hist_words)
+    if (c->hist != NULL && pc0 / 2u < c->hist_words
+        && (c->hist_main ? depth0 == 0 && depth == 0
+                         : depth0 > 0 && cur == c->b->step_vector))
         c->hist[pc0 / 2u] += avr->cycle - cyc0;
     if (depth > depth0 && c->n_frames < sizeof c->frames / sizeof c->frames[0]) {
         /* entered: the vector's first instruction runs next */
