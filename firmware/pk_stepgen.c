@@ -629,6 +629,86 @@ static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
     return 0;
 }
 
+/* ------------------------------------------------------------ inputs */
+
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t lv, int level)
+{
+    uint32_t old = sg->in_now;
+    sg->in_now = (uint16_t)lv;
+    sg->in_rise = (uint16_t)(sg->in_rise | (lv & ~old));
+    uint8_t w = sg->watch;
+    if (w == 0u)
+        return;
+    if ((w & PK_SGW_LIMITS) != 0u && ((level ? lv : lv & ~old) & PK_IN_LIMITS) != 0u)
+        sg->fired |= PK_SGW_LIMITS;
+    if ((w & PK_SGW_PROBE) != 0u && (sg->fired & PK_SGW_PROBE) == 0u
+        && ((lv >> PK_IN_PROBE) & 1u) == sg->probe_level) {
+        for (unsigned i = 0; i < PK_AXES; i++)
+            sg->probe_pos[i] = sg->pos[i];
+        sg->fired |= PK_SGW_PROBE;
+    }
+    if ((w & PK_SGW_HOME) != 0u) {
+        sg->lock |= (uint8_t)(lv & sg->home_axes);
+        if ((sg->lock & sg->home_axes) == sg->home_axes)
+            sg->fired |= PK_SGW_HOME;
+    }
+}
+
+/* A watch is armed and the inputs must be read (a board without edge
+ * reports, or a line block's start: a switch already active when a move
+ * starts): read them into the watches. 0, or -1 if the read failed (alarm
+ * latched). */
+static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    uint32_t lv;
+    if (pk_hal_input_read(hal, &lv) != 0) {
+        sg->alarm = PK_ALARM_INPUT_READ;
+        return -1;
+    }
+    pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    return 0;
+}
+
+/* The watches that stop the output at once have fired. */
+#define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
+
+/* The watch paths stay out of line: with none armed the step path pays only
+ * its byte test, not the registers their code would take; armed with nothing
+ * to do (hard limits on a board with edge reports, no switch closed), a few
+ * more byte tests and no call. */
+#if defined(__GNUC__) || defined(__clang__)
+#define SG_COLD __attribute__((noinline, cold))
+#else
+#define SG_COLD
+#endif
+
+/* A step event with a watch armed: the axes still to step (homing's locked
+ * ones dropped), or -1: stop before this event. */
+static SG_COLD int32_t watch_event(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t mask)
+{
+    if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
+        return -1;
+    return (int32_t)(mask & ~(uint32_t)sg->lock);
+}
+
+/* A chunk about to run with a watch armed (kind: its enum pk_sg_chunk_kind):
+ * 1 = stop before it. */
+static SG_COLD int watch_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t kind)
+{
+    return ((sg->poll_in || kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0) || WATCH_STOP(sg);
+}
+
+/* Stop at once for a watch: nothing more is emitted; a hard limit latches
+ * its alarm, a completed homing move only stops (MAIN drops the rest). */
+static SG_COLD uint64_t isr_watch_stop(struct pk_stepgen *sg)
+{
+    if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
+        sg->alarm = PK_ALARM_HARD_LIMIT;
+    sg->v_um_s = 0u;
+    sg->busy = false;
+    return 0;
+}
+
 uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now)
 {
     const uint32_t all = (1u << sg->axes) - 1u;
@@ -647,6 +727,13 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
+        }
+        /* armed, and something to do: inputs to read, a watch fired, an axis locked */
+        if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
+            int32_t w = watch_event(sg, hal, mask);
+            if (w < 0)
+                return isr_watch_stop(sg);
+            mask = (uint32_t)w;
         }
         if (pk_hal_step_write(hal, all, mask) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
@@ -680,6 +767,8 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind))
+            return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:
             if (c->spindle != sg->spindle_cur) {

@@ -25,6 +25,17 @@
  * at least dir_setup_ticks before the next step edge. A failing HAL write
  * latches an alarm; nothing more is written to the step lines and the
  * position counts only the pulses the HAL accepted.
+ *
+ * Input watches (pk_motion.h: hard limits, probing, homing): while one is
+ * armed (watch != 0), the callback applies the inputs at every step event,
+ * before the step's edge: hard limits stop the output there with an alarm,
+ * homing drops the steps of the axes whose switch has tripped (axis lock)
+ * and stops once all have, probing records the position at the contact.
+ * The levels come from the backend's edge reports (pk_sg_inputs, from the
+ * core's edge callback) or, for a backend without them, from an input read
+ * at each step event; every line block's start also reads them, so a switch
+ * already active when a move starts trips before its first step. With no
+ * watch armed the step path pays one byte test per step event and per chunk.
  */
 #ifndef PLOTKIN_PK_STEPGEN_H
 #define PLOTKIN_PK_STEPGEN_H
@@ -93,6 +104,14 @@ struct pk_sg_chunk {
     } u;
     uint16_t spindle;          /**< BLOCK / SPINDLE: spindle value (Q0.16) */
     uint32_t v_um_s;           /**< STEPS/SLOW: speed at the chunk's end (reports) */
+};
+
+/** Input watches (struct pk_stepgen.watch / .fired bits). */
+enum pk_sg_watch {
+    PK_SGW_LIMITS = 1, /**< hard limits: a limit input active -> stop at once, alarm */
+    PK_SGW_PROBE = 2,  /**< probing: the probe at probe_level -> record the position */
+    PK_SGW_HOME = 4    /**< homing: an axis of home_axes whose limit is active steps no
+                            more; once all of them are -> stop at once, no alarm */
 };
 
 /** Timer-side phase (private). */
@@ -168,7 +187,34 @@ struct pk_stepgen {
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
+
+    /* ---- input watches (MAIN arms and clears them under irq_save; the ISR
+     *      and the edge callback read them and set fired / lock) ---- */
+    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed */
+    volatile uint8_t fired;    /**< watch bits that have fired since armed */
+    volatile uint8_t lock;     /**< HOME: axes whose switch has tripped (they step no more) */
+    uint8_t home_axes;         /**< HOME: the axes homed */
+    uint8_t probe_level;       /**< PROBE: logical probe level that fires (1 touch, 0 leave) */
+    uint8_t poll_in;           /**< 1: the board reports no edges: read the inputs at
+                                    every step event while a watch is armed */
+    uint16_t in_flip;          /**< PK_IN_* bits flipped on top of the board's polarity
+                                    (Grbl $5 / $6) */
+    volatile uint16_t in_now;  /**< logical input levels last seen */
+    volatile uint16_t in_rise; /**< inputs that became active since MAIN last took them */
+    pk_steps_t probe_pos[PK_AXES]; /**< PROBE: position when it fired */
 };
+
+/**
+ * New logical input levels (PK_IN_* bits, polarity applied): from the core's
+ * edge callback, or read by the ISR or by MAIN (under irq_save). Updates the
+ * levels seen, latches rising inputs, and applies the armed watches: HOME
+ * locks the axes whose switch is active, PROBE fires at probe_level (position
+ * recorded), LIMITS fires on a limit input that rises, or with level = 1 on
+ * any limit input that is active (the step path's checks). Calling context:
+ * ISR, edge context or MAIN with the timer callback held off; never two at a
+ * time (hal.h).
+ */
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t logical, int level);
 
 /** Initialise (empty ring, position 0, dir lines assumed logical 0). */
 void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,
