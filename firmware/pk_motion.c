@@ -895,7 +895,7 @@ void pk_machine_poll(struct pk_machine *m)
     }
 }
 
-uint64_t pk_machine_timer_cb(void *arg, uint64_t now_ticks)
+uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks)
 {
     struct pk_machine *m = arg;
     return pk_sg_isr(&m->sg, m->hal, now_ticks);

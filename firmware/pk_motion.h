@@ -394,13 +394,14 @@ void pk_machine_poll(struct pk_machine *m);
 
 /**
  * The step timer callback (a pk_hal_timer_cb): arg is the struct pk_machine.
- * Emits step/dir edges through pk_hal_step_write / pk_hal_dir_write (and the
- * tool output for pen blocks) using integer adds and compares only, and
- * returns the absolute tick at which it must run next, or 0 when there is
- * nothing left to do (the timer stops; poll re-arms it).
+ * Emits step/dir edges through pk_hal_step_pulse or pk_hal_step_write /
+ * pk_hal_dir_write (and the tool output for pen blocks) using 32-bit integer
+ * adds and compares only, and returns the delay (ticks from now_ticks) after
+ * which it must run next, or PK_HAL_TIMER_STOP when there is nothing left to
+ * do (the timer stops; poll re-arms it).
  * Calling context: ISR (or the simulator's loop), never re-entered.
  */
-uint64_t pk_machine_timer_cb(void *arg, uint64_t now_ticks);
+uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks);
 
 /** Feed hold (Grbl '!'): decelerate along the path within the acceleration
  *  limits, stop, keep the remaining queue and the exact position.

@@ -621,12 +621,25 @@ void pk_sg_flush(struct pk_stepgen *sg)
 
 /* ------------------------------------------------------------------ ISR */
 
-static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
+/* The paths that run once per chunk or on a fault stay out of line: the step
+ * path pays for their registers only when it takes them. The watch paths
+ * likewise: with none armed the step path pays only its byte test; armed
+ * with nothing to do (hard limits on a board with edge reports, no switch
+ * closed), a few more byte tests and no call. */
+#if defined(__GNUC__) || defined(__clang__)
+#define SG_COLD __attribute__((noinline, cold))
+#define SG_NOINLINE __attribute__((noinline))
+#else
+#define SG_COLD
+#define SG_NOINLINE
+#endif
+
+static SG_COLD uint32_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
 {
     sg->alarm = why;
     sg->v_um_s = 0u;
     sg->busy = false;
-    return 0;
+    return PK_HAL_TIMER_STOP;
 }
 
 /* ------------------------------------------------------------ inputs */
@@ -672,15 +685,6 @@ static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
 /* The watches that stop the output at once have fired. */
 #define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
 
-/* The watch paths stay out of line: with none armed the step path pays only
- * its byte test, not the registers their code would take; armed with nothing
- * to do (hard limits on a board with edge reports, no switch closed), a few
- * more byte tests and no call. */
-#if defined(__GNUC__) || defined(__clang__)
-#define SG_COLD __attribute__((noinline, cold))
-#else
-#define SG_COLD
-#endif
 
 /* A step event with a watch armed: the axes still to step (homing's locked
  * ones dropped), or -1: stop before this event. */
@@ -700,26 +704,191 @@ static SG_COLD int watch_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, 
 
 /* Stop at once for a watch: nothing more is emitted; a hard limit latches
  * its alarm, a completed homing move only stops (MAIN drops the rest). */
-static SG_COLD uint64_t isr_watch_stop(struct pk_stepgen *sg)
+static SG_COLD uint32_t isr_watch_stop(struct pk_stepgen *sg)
 {
     if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
         sg->alarm = PK_ALARM_HARD_LIMIT;
     sg->v_um_s = 0u;
     sg->busy = false;
-    return 0;
+    return PK_HAL_TIMER_STOP;
 }
 
-uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now)
+
+/* The time of the pending event: whole ticks (32 bits, wrapping, as the
+ * HAL's timer callback sees them) and a Q16 fraction; d_q16 is a time in
+ * ticks Q16 (|d_q16| < 2^31). No 64-bit arithmetic on the step path. */
+static inline void t_add(struct pk_stepgen *sg, int32_t d_q16)
+{
+    uint32_t f = (uint32_t)sg->next_f + ((uint32_t)d_q16 & 0xFFFFu);
+    sg->next_t += (uint32_t)(d_q16 >> 16) + (f >> 16);
+    sg->next_f = (uint16_t)f;
+}
+
+/* A SLOW chunk's interval is cut into waits of this many ticks while it is
+ * longer than twice that, so every time the ISR compares stays within 2^31
+ * ticks of now. */
+#define SG_SLOW_SPLIT ((uint32_t)1 << 29)
+
+/* Where a hardware-ended pulse is, from now (the core keeps a line low at
+ * least as long as it was high): the step that raised it was at
+ * low_until - 2 pulse_ticks. 0: none in flight; 1: the pulse is high
+ * (*wait = ticks until it ends); 2: it has ended, the line must stay low
+ * for *wait more ticks. */
+static inline uint8_t pulse_state(const struct pk_stepgen *sg, uint32_t now, uint32_t *wait)
+{
+    if (!sg->pulse_hot)
+        return 0u;
+    uint32_t ahead = sg->low_until - now;
+    if (ahead == 0u || ahead > 2u * sg->pulse_ticks)
+        return 0u; /* passed (or, after a long idle, stale) */
+    if (ahead > sg->pulse_ticks) {
+        *wait = ahead - sg->pulse_ticks;
+        return 1u;
+    }
+    *wait = ahead;
+    return 2u;
+}
+
+/* The ring's tail chunks once the current one is done (left == 0): run the
+ * ones that are not steps (a line block's set-up, tool, spindle, waits) and
+ * set up the next chunk of events. Returns 1 with an event set up (left >
+ * 0), or 0 with *ret what the callback returns. *earliest: no step edge
+ * before it (direction set-up). Once per chunk: out of line. */
+static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now,
+                                      uint32_t *earliest, uint32_t *ret)
 {
     const uint32_t all = (1u << sg->axes) - 1u;
-    if ((sg->alarm) != 0)
+    for (;;) {
+        uint8_t t = sg->tail;
+        uint8_t h = sg->head;
+        PK_BARRIER(); /* read the chunk only after seeing it published */
+        if (t == h) {
+            sg->v_um_s = 0u;
+            sg->busy = false;
+            *ret = PK_HAL_TIMER_STOP;
+            return 0;
+        }
+        struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
+            *ret = isr_watch_stop(sg);
+            return 0;
+        }
+        switch (c->kind) {
+        case PK_SGC_BLOCK:
+            if (c->arg != sg->dir_cur) {
+                uint32_t w;
+                if (pulse_state(sg, now, &w) == 1u) {
+                    /* the last step's pulse is still high: change the
+                     * directions once it has ended (this chunk again) */
+                    *ret = w;
+                    return 0;
+                }
+            }
+            if (c->spindle != sg->spindle_cur) {
+                int r = pk_hal_spindle_write(hal, c->spindle);
+                if (r != 0 && r != PK_HAL_ENOSYS) {
+                    *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                    return 0;
+                }
+                sg->spindle_cur = c->spindle;
+            }
+            for (unsigned i = 0; i < sg->axes; i++) {
+                sg->inc[i] = c->u.blk.inc[i];
+                sg->acc[i] = c->u.blk.acc0[i];
+            }
+            sg->period = c->u.blk.period;
+            if (c->arg != sg->dir_cur) {
+                if (pk_hal_dir_write(hal, all, c->arg) != 0) {
+                    *ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
+                    return 0;
+                }
+                sg->dir_cur = c->arg;
+                uint32_t e = now + sg->dir_setup_ticks;
+                if ((int32_t)(e - *earliest) > 0)
+                    *earliest = e;
+            }
+            break;
+        case PK_SGC_STEPS:
+            /* first interval c0, then c1 changing by c2 per event: the
+             * difference c0 - c1 is added once here, so that every event
+             * is the same two adds */
+            sg->left = c->n;
+            t_add(sg, c->u.st.c0);
+            t_add(sg, -c->u.st.c1);
+            sg->I = c->u.st.c1;
+            sg->A = c->u.st.c2;
+            sg->v_um_s = c->v_um_s;
+            break;
+        case PK_SGC_SLOW: {
+            /* one event after a long interval: whole ticks + Q16 fraction
+             * (no ramp); a very long one is waited out in parts first */
+            uint32_t tk = c->u.ticks;
+            if (tk >= 2u * SG_SLOW_SPLIT) {
+                c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
+                sg->next_t += SG_SLOW_SPLIT;
+                sg->v_um_s = c->v_um_s;
+                *ret = sg->next_t - now;
+                return 0;
+            }
+            sg->left = 1;
+            sg->next_t += tk;
+            t_add(sg, (int32_t)c->n);
+            sg->I = 0;
+            sg->A = 0;
+            sg->v_um_s = c->v_um_s;
+            break;
+        }
+        default: {
+            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
+                *ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+                return 0;
+            }
+            if (c->kind == PK_SGC_SPINDLE) {
+                int r = pk_hal_spindle_write(hal, c->spindle);
+                if (r != 0 && r != PK_HAL_ENOSYS) {
+                    *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                    return 0;
+                }
+                sg->spindle_cur = c->spindle;
+            }
+            uint32_t w = c->u.ticks;
+            if (w == 0u)
+                w = 1u;
+            if (w == PK_HAL_TIMER_STOP)
+                w--;
+            sg->v_um_s = 0u;
+            PK_BARRIER();
+            sg->tail = (uint8_t)(t + 1u);
+            sg->next_t = now + w;
+            sg->next_f = 0u;
+            *ret = w;
+            return 0;
+        }
+        }
+        PK_BARRIER(); /* done reading the slot before handing it back */
+        sg->tail = (uint8_t)(t + 1u);
+        if (sg->left != 0u)
+            return 1;
+    }
+}
+
+uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
+    if (sg->alarm != 0)
         return isr_alarm(sg, sg->alarm);
     if (sg->restart) {
+        /* the schedule ended at or before the stop (a dwell cut short by a
+         * reset: after it): restart it from now */
         sg->restart = false;
-        if (sg->next_q16 < (now << 16))
-            sg->next_q16 = now << 16;
+        sg->hw_pulse = hal->ops->step_pulse != NULL;
+        if (sg->next_t != now) {
+            sg->next_t = now;
+            sg->next_f = 0u;
+        }
     }
+    uint32_t earliest = now;
     if (sg->phase == PK_SGP_STEP_DUE) {
+        const uint32_t all = (1u << sg->axes) - 1u;
         uint32_t mask = 0;
         for (unsigned i = 0; i < sg->axes; i++) {
             sg->acc[i] += (int32_t)sg->inc[i];
@@ -735,15 +904,28 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 return isr_watch_stop(sg);
             mask = (uint32_t)w;
         }
-        if (pk_hal_step_write(hal, all, mask) != 0)
-            return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+        if (sg->hw_pulse) {
+            /* the backend ends the pulse: on to the next event in this call */
+            if (mask != 0u) {
+                if (pk_hal_step_pulse(hal, mask, sg->pulse_ticks) != 0)
+                    return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+                sg->low_until = now + 2u * sg->pulse_ticks;
+                sg->pulse_hot = 1u;
+                earliest = sg->low_until;
+            }
+            sg->phase = PK_SGP_GAP;
+        } else {
+            if (pk_hal_step_write(hal, all, mask) != 0)
+                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+            sg->phase = PK_SGP_PULSE;
+        }
         for (unsigned i = 0; i < sg->axes; i++)
             if (mask & (1u << i))
                 sg->pos[i] += (sg->dir_cur & (1u << i)) ? 1 : -1;
-        sg->phase = PK_SGP_PULSE;
-        return now + sg->pulse_ticks;
-    }
-    if (sg->phase == PK_SGP_PULSE) {
+        if (sg->phase == PK_SGP_PULSE)
+            return sg->pulse_ticks;
+    } else if (sg->phase == PK_SGP_PULSE) {
+        const uint32_t all = (1u << sg->axes) - 1u;
         if (pk_hal_step_write(hal, all, 0u) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
         sg->phase = PK_SGP_GAP;
@@ -753,98 +935,39 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             sg->kill = 0;
             sg->v_um_s = 0u;
             sg->busy = false;
-            return 0;
+            return PK_HAL_TIMER_STOP;
         }
+    } else {
+        uint32_t w;
+        if (pulse_state(sg, now, &w) != 0u)
+            earliest = sg->low_until; /* after a wait or a restart */
     }
-    uint64_t earliest = now;
-    while (sg->left == 0) {
-        uint8_t t = sg->tail;
-        uint8_t h = sg->head;
-        PK_BARRIER(); /* read the chunk only after seeing it published */
-        if (t == h) {
-            sg->v_um_s = 0u;
-            sg->busy = false;
-            return 0;
-        }
-        const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind))
-            return isr_watch_stop(sg);
-        switch (c->kind) {
-        case PK_SGC_BLOCK:
-            if (c->spindle != sg->spindle_cur) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS)
-                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                sg->spindle_cur = c->spindle;
-            }
-            for (unsigned i = 0; i < sg->axes; i++) {
-                sg->inc[i] = c->u.blk.inc[i];
-                sg->acc[i] = c->u.blk.acc0[i];
-            }
-            sg->period = c->u.blk.period;
-            if (c->arg != sg->dir_cur) {
-                if (pk_hal_dir_write(hal, all, c->arg) != 0)
-                    return isr_alarm(sg, PK_ALARM_DIR_WRITE);
-                sg->dir_cur = c->arg;
-                earliest = now + sg->dir_setup_ticks;
-            }
-            break;
-        case PK_SGC_STEPS:
-            /* first interval c0, then c1 changing by c2 per event: the
-             * difference c0 - c1 is added once here, so that every event
-             * below is the same two adds */
-            sg->left = c->n;
-            sg->next_q16 += (uint64_t)((int64_t)c->u.st.c0 - c->u.st.c1);
-            sg->I = c->u.st.c1;
-            sg->A = c->u.st.c2;
-            sg->v_um_s = c->v_um_s;
-            break;
-        case PK_SGC_SLOW:
-            /* one event after a long interval: the recurrence's first term
-             * is added as whole ticks + fraction (no A, B) */
-            sg->left = 1;
-            sg->next_q16 += ((uint64_t)c->u.ticks << 16) | c->n;
-            sg->I = 0;
-            sg->A = 0;
-            sg->v_um_s = c->v_um_s;
-            break;
-        default: {
-            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0)
-                return isr_alarm(sg, PK_ALARM_TOOL_WRITE);
-            if (c->kind == PK_SGC_SPINDLE) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS)
-                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                sg->spindle_cur = c->spindle;
-            }
-            uint64_t until = now + c->u.ticks;
-            sg->v_um_s = 0u;
-            PK_BARRIER();
-            sg->tail = (uint8_t)(t + 1u);
-            sg->next_q16 = until << 16;
-            return until > now ? until : now + 1u;
-        }
-        }
-        PK_BARRIER(); /* done reading the slot before handing it back */
-        sg->tail = (uint8_t)(t + 1u);
+    if (sg->left == 0u) {
+        uint32_t ret;
+        if (!isr_next_chunk(sg, hal, now, &earliest, &ret))
+            return ret;
     }
-    uint32_t ival = (uint32_t)sg->I;
-    sg->next_q16 += (uint64_t)(int64_t)sg->I;
+    const uint32_t ival = (uint32_t)sg->I;
+    t_add(sg, sg->I);
     sg->I += sg->A;
     sg->left--;
     /* Late by more than the interval itself (the timer callback was held
      * up, or the main loop published the chunk after its time): the
      * schedule moves to now instead of catching up, which would fire the
-     * missed steps back to back at whatever rate the callback manages. */
-    if (sg->next_q16 + ival < (now << 16)) {
-        sg->next_q16 = now << 16;
+     * missed steps back to back at whatever rate the callback manages.
+     * (next + ival < now in Q16, with behind = now - next in ticks:
+     * ival < 2^30, so behind >= 2^15 is always late.) */
+    const int32_t behind = (int32_t)(now - sg->next_t);
+    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)sg->next_f + ival)) {
+        sg->next_t = now;
+        sg->next_f = 0u;
         sg->late++;
     }
-    uint64_t at = (sg->next_q16 + 0x8000u) >> 16;
-    if (at < earliest)
+    uint32_t at = sg->next_t + (uint32_t)(sg->next_f >> 15);
+    if ((int32_t)(at - earliest) < 0)
         at = earliest;
-    if (at == 0)
-        at = 1;
+    sg->pulse_hot = 0u; /* the next edge is after the low time */
     sg->phase = PK_SGP_STEP_DUE;
-    return at;
+    const int32_t dl = (int32_t)(at - now);
+    return dl > 0 ? (uint32_t)dl : 0u;
 }

@@ -21,7 +21,8 @@
  * only by the callback; both are single bytes, so every read and write of
  * them is atomic even on 8-bit targets, and PK_BARRIER orders the chunk
  * data against the index that publishes it), raises the step lines of the axes due
- * at an event, lowers them step_pulse_ticks later, writes a direction change
+ * at an event, lowers them step_pulse_ticks later (or has the HAL do it:
+ * step_pulse, one callback per event), writes a direction change
  * at least dir_setup_ticks before the next step edge. A failing HAL write
  * latches an alarm; nothing more is written to the step lines and the
  * position counts only the pulses the HAL accepted.
@@ -164,8 +165,14 @@ struct pk_stepgen {
     int32_t I, A;              /**< interval and its change per event, ticks Q16
                                     (chunks are at most PK_SG_CHUNK_TICKS_MAX long,
                                     so |I| < 2^30) */
-    uint64_t next_q16;         /**< absolute tick (Q16) of the last scheduled event */
-    uint64_t earliest;         /**< no step edge before this tick (dir set-up) */
+    uint32_t next_t;           /**< tick of the last scheduled event (the HAL
+                                    callback's 32-bit wrapping ticks) ... */
+    uint16_t next_f;           /**< ... and its fraction of a tick, Q16 */
+    uint8_t hw_pulse;          /**< the HAL ends step pulses itself (step_pulse):
+                                    one callback per step event */
+    uint8_t pulse_hot;         /**< hw_pulse: a pulse raised at low_until - 2 pulse_ticks
+                                    may still be high or in its low time */
+    uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
     uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
     uint32_t period;
     int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
@@ -239,8 +246,15 @@ void pk_sg_set_hold(struct pk_stepgen *sg, bool hold);
 /** Chunks waiting in the ring (MAIN or ISR). */
 uint32_t pk_sg_pending(const struct pk_stepgen *sg);
 
-/** The timer work: see the file comment. Returns the next tick, 0 to stop. ISR. */
-uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now);
+/**
+ * The timer work (a pk_hal_timer_cb's body, see the file comment): now is the
+ * HAL's 32-bit tick of the call; returns the delay to the next call, or
+ * PK_HAL_TIMER_STOP. Every step event is one call if the HAL has step_pulse
+ * (it ends the pulse; the next edge comes at least 2 pulse widths after the
+ * raising one, a direction change after the pulse has ended), else two (the
+ * second lowers the lines pulse_ticks later). 32-bit arithmetic only. ISR.
+ */
+uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now);
 
 /** Drop everything queued and the timer-side state, keep the position. Call
  *  only with the timer stopped. MAIN. */

@@ -29,7 +29,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PK_HAL_VERSION 2u /**< 2: input_read, input_watch, inputs, input_invert */
+#define PK_HAL_VERSION 3u /**< 2: input_read, input_watch, inputs, input_invert;
+                                3: 32-bit timer callback (delay), step_pulse */
 #define PK_HAL_MAX_AXES 4
 
 /** HAL status codes: 0 on success, negative errno-style values on failure. */
@@ -75,12 +76,30 @@ _Static_assert(PK_IN_LIMIT_A == PK_HAL_MAX_AXES - 1, "one limit input per HAL ax
  */
 typedef void (*pk_hal_input_cb)(void *arg, uint32_t raw_levels, uint64_t tick);
 
+/** What a timer callback returns to stop the timer (no delay is this long). */
+#define PK_HAL_TIMER_STOP 0xFFFFFFFFu
+
 /**
- * Timer callback: called by the backend at (or as soon as possible after) the
- * tick it was armed for, in interrupt context. Returns the absolute tick at
- * which it wants to run next, or 0 to stop the timer.
+ * Timer callback: called by the backend in interrupt context at (or as soon
+ * as possible after) the tick it asked for; never re-entered.
+ *
+ * now_ticks: the low 32 bits of the clock (clock_ticks) at this call -- the
+ * tick it runs at, or the tick it was due at (a backend that runs callbacks
+ * behind the clock, like the POSIX loop, may pass that instead; never a tick
+ * before it was due).
+ * Returns the delay in ticks from now_ticks to the next call: the backend
+ * runs it at now_ticks + delay (0: at once, as soon as it can), or
+ * PK_HAL_TIMER_STOP to stop the timer. The schedule stays absolute because
+ * the callback computes the delay from the now_ticks it was given, so a late
+ * call does not move the ones after it.
+ *
+ * 32 bits, wrapping (71 minutes at 1 MHz, 4 minutes at the 2^24 Hz that
+ * pk_machine_init allows): a small target keeps the step time in single
+ * words, with no 64-bit arithmetic in the interrupt. The callback keeps
+ * every time it compares within 2^31 ticks of now_ticks; a delay may be
+ * anything up to 2^32 - 2.
  */
-typedef uint64_t (*pk_hal_timer_cb)(void *arg, uint64_t now_ticks);
+typedef uint32_t (*pk_hal_timer_cb)(void *arg, uint32_t now_ticks);
 
 struct pk_hal_ops {
     uint32_t version; /**< PK_HAL_VERSION; pk_hal_check() rejects a mismatch */
@@ -89,6 +108,17 @@ struct pk_hal_ops {
      *  (axis) i takes bit i of levels. Several lines in one call where the
      *  hardware allows (one bulk request on libgpiod). */
     int (*step_write)(void *ctx, uint32_t mask, uint32_t levels);
+    /** [ISR] Optional: one step pulse. Write the raw levels `levels` to the
+     *  step lines of mask (their active level) now, and their complement (the
+     *  idle level) at least width_ticks later, by itself (hardware, or an
+     *  interrupt of its own), so the core needs no timer callback to end it.
+     *  Contract: before the backend runs a timer callback due at or after
+     *  the pulse's end (now_ticks of the call that raised it + width_ticks),
+     *  the pulse has ended; the core calls step_pulse or step_write again only
+     *  after the pulse has ended (it keeps the line low at least width_ticks
+     *  too). Bounded (register writes). NULL: the core ends each pulse itself
+     *  with step_write from a second timer callback. */
+    int (*step_pulse)(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks);
     /** [ISR] Same for the direction lines. */
     int (*dir_write)(void *ctx, uint32_t mask, uint32_t levels);
     /** [MAIN] Same for the driver-enable lines. */
@@ -119,7 +149,8 @@ struct pk_hal_ops {
     int (*input_watch)(void *ctx, pk_hal_input_cb cb, void *arg);
 
     /** [MAIN] Start the step timer: cb(arg, now) is first called at tick
-     *  first_tick; then at whatever tick each call returns. */
+     *  first_tick (clock_ticks units; at once if that has passed), then
+     *  after the delay each call returns (see pk_hal_timer_cb). */
     int (*timer_start)(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick);
     /** [ISR][MAIN] Stop the step timer; no callback runs after it returns. */
     int (*timer_stop)(void *ctx);
@@ -204,6 +235,14 @@ static inline int pk_hal_check(const struct pk_hal *h)
 static inline int pk_hal_step_write(const struct pk_hal *h, uint32_t mask, uint32_t logical)
 {
     return h->ops->step_write(h->ctx, mask, (logical ^ h->step_invert) & mask);
+}
+/** A step pulse on the axes of mask (logical: active), ended by the backend
+ *  after width_ticks; PK_HAL_ENOSYS if it cannot (use step_write). [ISR] */
+static inline int pk_hal_step_pulse(const struct pk_hal *h, uint32_t mask, uint32_t width_ticks)
+{
+    if (h->ops->step_pulse == NULL)
+        return PK_HAL_ENOSYS;
+    return h->ops->step_pulse(h->ctx, mask, (mask ^ h->step_invert) & mask, width_ticks);
 }
 static inline int pk_hal_dir_write(const struct pk_hal *h, uint32_t mask, uint32_t logical)
 {

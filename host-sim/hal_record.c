@@ -218,12 +218,12 @@ void pk_rec_advance(struct pk_rec *r, uint64_t until)
             r->now = r->next;
         pk_hal_timer_cb cb = r->cb;
         r->callbacks++;
-        uint64_t nx = cb(r->cb_arg, r->now);
-        if (nx == 0) {
+        uint32_t delay = cb(r->cb_arg, (uint32_t)r->now);
+        if (delay == PK_HAL_TIMER_STOP) {
             r->cb = NULL;
             continue;   /* input changes may still be due before until */
         }
-        r->next = nx < r->now ? r->now : nx;
+        r->next = r->now + delay;
     }
     in_deliver(r);
     if (until > r->now)

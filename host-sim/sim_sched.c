@@ -127,15 +127,15 @@ int pk_sim_sched_advance(struct pk_sim_sched *s, uint64_t until)
         }
         uint32_t gen = s->generation;
         s->in_callback = 1;
-        uint64_t next = s->cb(s->cb_arg, s->now);
+        uint32_t delay = s->cb(s->cb_arg, (uint32_t)s->now);
         s->in_callback = 0;
         s->callbacks++;
         if (s->generation != gen)
             continue; /* stopped or restarted from inside the callback */
-        if (next == 0u)
+        if (delay == PK_HAL_TIMER_STOP)
             s->armed = 0;
         else
-            s->due = next > s->now ? next : s->now;
+            s->due = s->now + delay;
     }
     if (until > s->now)
         s->now = until;

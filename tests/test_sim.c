@@ -24,26 +24,27 @@ struct toy {
     int hal_errors;
 };
 
-static uint64_t toy_cb(void *arg, uint64_t now)
+static uint32_t toy_cb(void *arg, uint32_t now)
 {
     struct toy *t = arg;
+    (void)now;
     if (t->phase == 1) {
         t->hal_errors += pk_hal_step_write(t->hal, 0xFu, 0u) != 0;
         t->phase = 0;
         if (++t->i == t->n)
-            return 0;
-        return now + t->low;
+            return PK_HAL_TIMER_STOP;
+        return t->low;
     }
     const struct toy_step *s = &t->script[t->i];
     uint8_t want = (uint8_t)(s->dir > 0 ? t->dir | (1u << s->axis) : t->dir & ~(1u << s->axis));
     if (want != t->dir) {
         t->hal_errors += pk_hal_dir_write(t->hal, 0xFu, want) != 0;
         t->dir = want;
-        return now + t->setup; /* step after the set-up time */
+        return t->setup; /* step after the set-up time */
     }
     t->hal_errors += pk_hal_step_write(t->hal, 1u << s->axis, 1u << s->axis) != 0;
     t->phase = 1;
-    return now + t->high;
+    return t->high;
 }
 
 static struct toy_step script[300];
@@ -87,7 +88,8 @@ static void run_toy(struct pk_sim_hw *w, struct toy *t, uint32_t high, uint32_t 
 /* ---- scheduler ----------------------------------------------------------- */
 struct sched_log { uint64_t at[16]; unsigned n; uint64_t next[16]; struct pk_sim_sched *s; int stop_inside; };
 
-static uint64_t log_cb(void *arg, uint64_t now)
+/* next[]: the absolute ticks asked for (0: stop), turned into delays */
+static uint32_t log_cb(void *arg, uint32_t now)
 {
     struct sched_log *l = arg;
     l->at[l->n] = now;
@@ -96,9 +98,9 @@ static uint64_t log_cb(void *arg, uint64_t now)
         struct pk_hal h;
         pk_sim_sched_hal(l->s, &h);
         h.ops->timer_stop(h.ctx);
-        return now + 5u; /* asks for more, but the stop must win */
+        return 5u; /* asks for more, but the stop must win */
     }
-    return nx;
+    return nx == 0u ? PK_HAL_TIMER_STOP : (uint32_t)(nx - now);
 }
 
 static void test_callbacks_run_at_exactly_the_ticks_they_ask_for(void)
@@ -132,10 +134,11 @@ static void test_a_stop_inside_a_callback_sticks(void)
     TH_EXPECT_EQ(s.armed, 0);
 }
 
-static uint64_t stuck_cb(void *arg, uint64_t now)
+static uint32_t stuck_cb(void *arg, uint32_t now)
 {
     (void)arg;
-    return now; /* never advances */
+    (void)now;
+    return 0u; /* never advances */
 }
 
 static void test_a_callback_that_never_advances_is_caught(void)
@@ -151,11 +154,12 @@ static void test_a_callback_that_never_advances_is_caught(void)
 
 struct main_log { unsigned iters; uint64_t last; struct pk_hal *h; int started; unsigned cbs; };
 
-static uint64_t count_cb(void *arg, uint64_t now)
+static uint32_t count_cb(void *arg, uint32_t now)
 {
     struct main_log *m = arg;
+    (void)now;
     m->cbs++;
-    return m->cbs < 10u ? now + 1000u : 0u;
+    return m->cbs < 10u ? 1000u : PK_HAL_TIMER_STOP;
 }
 
 static int main_fn(void *arg, uint64_t now)

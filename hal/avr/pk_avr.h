@@ -11,10 +11,12 @@
  *
  * Step timer (pk_avr_timer.c): a free-running 16-bit timer at
  * PK_BOARD_TICK_HZ (2 MHz), extended to 48 bits by its overflow interrupt; the
- * callback runs from the compare interrupt at the tick it asked for. An event
+ * callback runs from compare A's interrupt at the tick it asked for. An event
  * due sooner than PK_AVR_TIMER_LEAD ticks after the previous one is not armed
  * (the compare could be passed before it is written) but waited for inside
- * the interrupt, so no event is ever early and none is lost.
+ * the interrupt, so no event is ever early and none is lost; one interrupt
+ * runs at most two callbacks (then it lets the main loop in). Step pulses end
+ * by compare B's interrupt (the HAL's step_pulse), so a step is one callback.
  *
  * Calling contexts are those of struct pk_hal_ops (hal.h); everything here
  * that the main loop calls saves SREG and disables interrupts around what
@@ -39,10 +41,15 @@ struct pk_avr {
     /* step timer */
     pk_hal_timer_cb cb;           /**< set by timer_start (MAIN, ISR off) */
     void *cb_arg;
-    uint32_t next_hi;             /**< tick of the pending callback, bits 16..47 (ISR) */
-    uint16_t next_lo;             /**< and bits 0..15 */
-    volatile uint32_t ovf;        /**< timer overflows (ISR writes; read with ISR off) */
+    uint32_t next;                /**< tick of the pending callback, clock bits 0..31 (ISR) */
+    volatile uint16_t ovf_lo;     /**< timer overflows: clock bits 16..31 ... (the */
+    volatile uint16_t ovf_hi;     /**< ... and 32..47; overflow ISR writes, read with ISR off) */
     volatile uint8_t armed;       /**< compare interrupt enabled */
+    /* step pulse (compare B) */
+    uint16_t pulse_end;           /**< TCNT at which the pulse ends */
+    uint8_t pulse_mask;           /**< its step lines (axis bits) ... */
+    uint8_t pulse_idle;           /**< ... and their idle raw levels */
+    volatile uint8_t pulse_on;    /**< compare B armed for pulse_end */
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
     /* servo */
@@ -70,6 +77,10 @@ void pk_avr_timer_init(struct pk_avr *a);
 int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick);
 int pk_avr_timer_stop(void *ctx);
 uint64_t pk_avr_clock_ticks(void *ctx);
+/** The HAL's step_pulse: raw levels on the step lines of mask now, their
+ *  complement width_ticks (<= 32,767) later from compare B's interrupt.
+ *  [ISR][MAIN] */
+int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks);
 
 /** Pen servo (pk_avr_servo8.c or pk_avr_servo16.c, as the board's source
  *  list chooses): value_q16 = fraction of the board's pulse range

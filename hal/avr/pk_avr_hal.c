@@ -64,6 +64,7 @@ static void avr_irq_restore(void *ctx, uint32_t token)
 static const struct pk_hal_ops avr_ops = {
     .version = PK_HAL_VERSION,
     .step_write = avr_step_write,
+    .step_pulse = pk_avr_step_pulse,
     .dir_write = avr_dir_write,
     .enable_write = avr_enable_write,
     .tool_write = avr_tool_write,

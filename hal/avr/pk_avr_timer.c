@@ -1,23 +1,48 @@
 /*
- * pk_avr_timer.c — the step timer of the AVR backend (see pk_avr.h).
+ * pk_avr_timer.c — the step timer and the step pulses of the AVR backend
+ * (see pk_avr.h).
  *
  * The board's 16-bit step timer runs freely at PK_BOARD_TICK_HZ; its overflow
  * interrupt counts wraps, so the clock is (overflows << 16 | TCNT), 48 bits
- * (four years at 2 MHz). A callback is scheduled on the compare unit:
+ * (four years at 2 MHz); the callback sees its low 32 bits (hal.h). A
+ * callback is scheduled on compare unit A:
  *
- *   service (the compare ISR; timer_start only arms the first event):
+ *   service (the compare A ISR; timer_start only arms the first event):
+ *     end a step pulse whose time is up (so no callback runs before it)
  *     loop:  now = clock
  *            next further than PK_AVR_TIMER_LEAD ticks ahead?
- *                write its low 16 bits to OCR, clear a stale match flag,
- *                read TCNT again: still before OCR -> done (the compare will
- *                fire); passed meanwhile -> go round (it is due now)
- *            else: wait until now >= next, next = cb(arg, now) with
- *                  interrupts on (this compare masked); 0 -> stop
+ *                write its low 16 bits to OCRA, read TCNT again: still before
+ *                it -> done (the compare will fire); passed meanwhile -> go
+ *                round (it is due now)
+ *            PK_AVR_TIMER_BURST callbacks run in this interrupt already?
+ *                next = now + GAP (armed as above: the main loop and
+ *                the other interrupts get in first; the event is late by a
+ *                few ticks, which the core's absolute timing absorbs)
+ *            else: wait until now >= next, delay = cb(arg, now) with
+ *                  interrupts on; STOP -> stop; next = now + delay
+ *
+ * The bound matters: while the step events come faster than the callbacks
+ * run, every event is due when the previous callback returns, and an
+ * unbounded loop stays in the interrupt until the step ring is empty -- the
+ * main loop, which refills it, starved (measured before the bound: one
+ * compare interrupt of 191,588 cycles running 192 callbacks back to back at
+ * 8,000 steps/s on the mega-ramps image, then an underrun; 42 of them).
  *
  * A next more than 65,536 ticks ahead matches at an earlier wrap of TCNT;
  * the ISR then finds it not yet due and arms it again. A callback is never
- * run before its tick, and a late one runs at once (the core's timing is
- * absolute, so lateness delays one edge and does not accumulate).
+ * run before its tick. Compare A is masked while the callback runs (with
+ * interrupts on, so that the serial line, the clock overflow, the servo and
+ * the pulse end are served meanwhile): a compare written for a tick the
+ * counter had just reached leaves its flag set, which would otherwise enter
+ * this interrupt again inside the callback.
+ *
+ * Step pulses (pk_avr_step_pulse, the HAL's step_pulse): the lines go active
+ * at once and compare unit B's interrupt returns them to idle width ticks
+ * later (Grbl ends its pulses with a second interrupt likewise), so a step
+ * costs one callback. Neither compare's flag is ever cleared by a TIFR write
+ * (simavr before 1.7, which Debian 12 ships, mishandles them: an OCF write
+ * clears a pending TOV, simavr issue #414, fixed by #441, which lost clock
+ * wraps); a stale flag costs one interrupt that finds its time not yet come.
  */
 #include "pk_avr.h"
 
@@ -25,129 +50,142 @@
 #include <avr/io.h>
 #include "board.h"
 
-/* The clock is kept as two integers, the overflow count (bits 16..47) and the
- * counter (bits 0..15): avr-gcc handles 64-bit values through the stack and
- * libgcc helpers, which in the step interrupt cost more than the rest of this
- * file. Only the callback's argument and result are 64-bit. */
-struct tick48 {
-    uint32_t hi;
-    uint16_t lo;
-};
+/** Callbacks one compare interrupt runs at most before it lets the main loop
+ *  in (the longest step interrupt is about this many callbacks). */
+#define PK_AVR_TIMER_BURST 2u
+/** A due event that a full burst left over is armed this many ticks ahead
+ *  (more than the few ticks between reading the clock and writing OCRA, or
+ *  the write would find the tick passed every time). */
+#define PK_AVR_TIMER_GAP 16u
+/** Pulses this short (ticks) are timed inside step_pulse instead of by the
+ *  compare B interrupt (writing OCRB takes a few ticks). */
+#define PK_AVR_PULSE_SPIN 3u
 
-static inline __attribute__((always_inline)) struct tick48 now_irqoff(const struct pk_avr *a)
+/* The clock's low 32 bits: overflow count (low half) and counter. A pending
+ * overflow not yet counted (the counter wrapped since the overflow ISR ran)
+ * adds one. Interrupts off. */
+static inline __attribute__((always_inline)) uint32_t now32(const struct pk_avr *a)
 {
-    struct tick48 t;
-    t.lo = PK_BOARD_STEP_TCNT;
-    t.hi = a->ovf;
-    if ((PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_TOV)) && t.lo < 0x8000u)
-        t.hi++;
-    return t;
+    uint16_t lo = PK_BOARD_STEP_TCNT;
+    uint16_t hi = a->ovf_lo;
+    if ((PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_TOV)) && lo < 0x8000u)
+        hi++;
+    return (uint32_t)hi << 16 | lo;
 }
 
-/* 48-bit tick <-> uint64_t byte by byte (AVR is little-endian): a 64-bit
- * shift would be a libgcc call. */
-union pk_avr_u64 {
-    uint64_t v;
-    uint8_t b[8];
-};
-
-static inline __attribute__((always_inline)) uint64_t t64(struct tick48 t)
-{
-    union pk_avr_u64 u;
-    u.b[0] = (uint8_t)t.lo;
-    u.b[1] = (uint8_t)(t.lo >> 8);
-    u.b[2] = (uint8_t)t.hi;
-    u.b[3] = (uint8_t)(t.hi >> 8);
-    u.b[4] = (uint8_t)(t.hi >> 16);
-    u.b[5] = (uint8_t)(t.hi >> 24);
-    u.b[6] = 0u;
-    u.b[7] = 0u;
-    return u.v;
-}
-
-/* Ticks from now until next, 0 if due or past, 0x10000 for "more than a
- * counter period away". */
-static inline __attribute__((always_inline)) uint32_t ahead_of(uint32_t next_hi, uint16_t next_lo,
-                                                               struct tick48 now)
-{
-    if (next_hi == now.hi)
-        return next_lo > now.lo ? (uint16_t)(next_lo - now.lo) : 0u;
-    if (next_hi == now.hi + 1u)
-        return 0x10000u - now.lo + next_lo;
-    return (int32_t)(next_hi - now.hi) > 0 ? 0x20000u : 0u;
-}
-
-/* Write the compare register for next (more than LEAD ticks ahead). Returns
- * 1 if the compare will fire for it, 0 if the counter passed it meanwhile.
- * (Interrupts off.) TIFR is never written here: a stale match flag costs at
- * most one spurious interrupt (service checks the time before any callback),
- * and simavr before 1.7 (Debian 12 ships 1.6) mishandles TIFR writes -- an
- * OCF write clears a pending TOV (simavr issue #414, fixed by #441) -- which
- * lost clock wraps, every later event 65,536 ticks late, under simavr. */
+/* Write the compare register for next (d = next - now > LEAD ticks ahead).
+ * Returns 1 if the compare will fire for it, 0 if the counter passed it
+ * meanwhile. (Interrupts off.) At least 2 ticks must be left after the
+ * write: a compare written for the counter's current or next value may not
+ * fire until the next wrap (on simavr 1.6 at least). */
 static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a, uint32_t d)
 {
-    uint16_t at = a->next_lo;
+    uint16_t at = (uint16_t)a->next;
     PK_BOARD_STEP_OCR = at;
-    /* at least 2 ticks left after the write: a compare written for the
-     * counter's current or next value may not fire until the next wrap (on
-     * simavr 1.6 at least, which then reschedules it a period later) */
     return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 1;
 }
 
-/* The compare interrupt (interrupts off on entry). The callback itself runs
- * with interrupts on and this compare masked, so the serial line, the clock
- * overflow and the servo are served while it works (the receiver holds only
- * two bytes: 170 us at 115200 baud) and the callback is never re-entered. */
-static void service(struct pk_avr *a)
+/* The pulse's lines back to idle. Interrupts off. */
+static inline __attribute__((always_inline)) void pulse_end(struct pk_avr *a)
 {
-    PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
-    for (;;) {
-        struct tick48 now = now_irqoff(a);
-        uint32_t d = ahead_of(a->next_hi, a->next_lo, now);
-        if (d > PK_AVR_TIMER_LEAD) {
-            if (arm(a, d)) {
-                PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-                return;
-            }
-            continue;
-        }
-        while (d > 0u) {
-            now = now_irqoff(a);
-            d = ahead_of(a->next_hi, a->next_lo, now);
-        }
-        sei();
-        uint64_t next = a->cb(a->cb_arg, t64(now));
-        cli();
-        union pk_avr_u64 nb = { .v = next };
-        if ((nb.b[0] | nb.b[1] | nb.b[2] | nb.b[3] | nb.b[4] | nb.b[5] | nb.b[6] | nb.b[7]) == 0u) {
-            a->armed = 0u;
-            return;
-        }
-        a->next_lo = (uint16_t)(nb.b[0] | (uint16_t)nb.b[1] << 8);
-        a->next_hi = nb.b[2] | (uint32_t)nb.b[3] << 8 | (uint32_t)nb.b[4] << 16 | (uint32_t)nb.b[5] << 24;
-    }
+    pk_board_step_write(a->pulse_mask, a->pulse_idle);
+    PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_PULSE_OCIE));
+    a->pulse_on = 0u;
+}
+
+static inline __attribute__((always_inline)) uint8_t pulse_due(const struct pk_avr *a)
+{
+    return (int16_t)(PK_BOARD_STEP_TCNT - a->pulse_end) >= 0;
 }
 
 ISR(PK_BOARD_STEP_COMP_vect)
 {
-    service(&pk_avr_board);
+    struct pk_avr *a = &pk_avr_board;
+    if (a->pulse_on && pulse_due(a))
+        pulse_end(a);
+    uint8_t runs = 0u;
+    for (;;) {
+        uint32_t now = now32(a);
+        int32_t d = (int32_t)(a->next - now);
+        if (d <= (int32_t)PK_AVR_TIMER_LEAD && runs == PK_AVR_TIMER_BURST) {
+            a->next = now + PK_AVR_TIMER_GAP;
+            d = PK_AVR_TIMER_GAP;
+        }
+        if (d > (int32_t)PK_AVR_TIMER_LEAD) {
+            if (arm(a, (uint32_t)d))
+                return;
+            continue;
+        }
+        while (d > 0) {
+            now = now32(a);
+            d = (int32_t)(a->next - now);
+        }
+        runs++;
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
+        sei();
+        uint32_t delay = a->cb(a->cb_arg, now);
+        cli();
+        if (delay == PK_HAL_TIMER_STOP) {
+            a->armed = 0u;
+            return;
+        }
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
+        a->next = now + delay;
+    }
+}
+
+/* Compare B: the end of a step pulse (or a stale match: not yet its time). */
+ISR(PK_BOARD_PULSE_COMP_vect)
+{
+    struct pk_avr *a = &pk_avr_board;
+    if (pulse_due(a))
+        pulse_end(a);
 }
 
 ISR(PK_BOARD_STEP_OVF_vect)
 {
-    pk_avr_board.ovf++;
+    struct pk_avr *a = &pk_avr_board;
+    if (++a->ovf_lo == 0u)
+        a->ovf_hi++;
+}
+
+int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
+{
+    struct pk_avr *a = ctx;
+    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : (uint16_t)width_ticks;
+    uint8_t s = SREG;
+    cli();
+    if (a->pulse_on)
+        pulse_end(a); /* (the core never overlaps pulses) */
+    pk_board_step_write((uint8_t)mask, (uint8_t)levels);
+    a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
+    a->pulse_mask = (uint8_t)mask;
+    a->pulse_idle = (uint8_t)(~levels & mask);
+    if (w <= PK_AVR_PULSE_SPIN) {
+        while (!pulse_due(a))
+            ;
+        pk_board_step_write(a->pulse_mask, a->pulse_idle);
+    } else {
+        PK_BOARD_PULSE_OCR = a->pulse_end;
+        a->pulse_on = 1u;
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_PULSE_OCIE));
+    }
+    SREG = s;
+    return PK_HAL_OK;
 }
 
 void pk_avr_timer_init(struct pk_avr *a)
 {
     a->cb = NULL;
     a->armed = 0u;
-    a->ovf = 0u;
+    a->ovf_lo = 0u;
+    a->ovf_hi = 0u;
+    a->pulse_on = 0u;
     PK_BOARD_STEP_TIMSK = 0u;
     PK_BOARD_STEP_TCCRA = 0u;
     PK_BOARD_STEP_TCCRB = 0u;
     PK_BOARD_STEP_TCNT = 0u;
-    PK_BOARD_STEP_TIFR = (uint8_t)(_BV(PK_BOARD_STEP_OCF) | _BV(PK_BOARD_STEP_TOV));
+    PK_BOARD_STEP_TIFR = (uint8_t)(_BV(PK_BOARD_STEP_OCF) | _BV(PK_BOARD_PULSE_OCF) | _BV(PK_BOARD_STEP_TOV));
     PK_BOARD_STEP_TIMSK = (uint8_t)_BV(PK_BOARD_STEP_TOIE);
     PK_BOARD_STEP_TCCRB = PK_BOARD_STEP_CS;
 }
@@ -164,19 +202,19 @@ int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_
     cli();
     a->cb = cb;
     a->cb_arg = arg;
-    a->next_lo = (uint16_t)first_tick;
-    a->next_hi = (uint32_t)(first_tick >> 16);
     a->armed = 1u;
+    uint64_t now64 = pk_avr_clock_ticks(ctx);
+    /* first_tick in the past, or further than 2^31 ticks: at once / capped */
+    uint64_t ahead = first_tick > now64 ? first_tick - now64 : 0u;
+    a->next = (uint32_t)now64 + (uint32_t)(ahead > 0x7FFFFFFFu ? 0x7FFFFFFFu : ahead);
     for (uint32_t margin = PK_AVR_TIMER_LEAD + 1u;; margin *= 2u) {
-        struct tick48 now = now_irqoff(a);
-        uint32_t d = ahead_of(a->next_hi, a->next_lo, now);
-        if (d <= PK_AVR_TIMER_LEAD) {
-            uint64_t t = t64(now) + margin;
-            a->next_lo = (uint16_t)t;
-            a->next_hi = (uint32_t)(t >> 16);
-            d = margin;
+        uint32_t now = now32(a);
+        int32_t d = (int32_t)(a->next - now);
+        if (d <= (int32_t)PK_AVR_TIMER_LEAD) {
+            a->next = now + margin;
+            d = (int32_t)margin;
         }
-        if (arm(a, d))
+        if (arm(a, (uint32_t)d))
             break;
     }
     PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
@@ -195,11 +233,30 @@ int pk_avr_timer_stop(void *ctx)
     return PK_HAL_OK;
 }
 
+/* 48-bit clock, assembled byte by byte (AVR is little-endian): a 64-bit
+ * shift would be a libgcc call. MAIN (also called by timer_start). */
 uint64_t pk_avr_clock_ticks(void *ctx)
 {
+    const struct pk_avr *a = ctx;
     uint8_t s = SREG;
     cli();
-    struct tick48 t = now_irqoff(ctx);
+    uint16_t lo = PK_BOARD_STEP_TCNT;
+    uint16_t mid = a->ovf_lo;
+    uint16_t hi = a->ovf_hi;
+    if ((PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_TOV)) && lo < 0x8000u && ++mid == 0u)
+        hi++;
     SREG = s;
-    return t64(t);
+    union {
+        uint64_t v;
+        uint8_t b[8];
+    } u;
+    u.b[0] = (uint8_t)lo;
+    u.b[1] = (uint8_t)(lo >> 8);
+    u.b[2] = (uint8_t)mid;
+    u.b[3] = (uint8_t)(mid >> 8);
+    u.b[4] = (uint8_t)hi;
+    u.b[5] = (uint8_t)(hi >> 8);
+    u.b[6] = 0u;
+    u.b[7] = 0u;
+    return u.v;
 }

@@ -112,12 +112,12 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
             if (now - p->due > p->late_max)
                 p->late_max = now - p->due;
             uint32_t gen = p->generation;
-            uint64_t next = p->cb(p->cb_arg, p->due);
+            uint32_t delay = p->cb(p->cb_arg, (uint32_t)p->due);
             if (p->generation == gen) {
-                if (next == 0u)
+                if (delay == PK_HAL_TIMER_STOP)
                     p->armed = 0;
                 else
-                    p->due = next;
+                    p->due += delay;
             }
             now = op_clock_ticks(p);
         }

@@ -26,9 +26,9 @@
 static struct pk_uart uart;
 static volatile uint32_t steps_left, steps_done;
 static volatile uint8_t high;
-static uint64_t t_next;
+static uint32_t t_next;
 
-static uint64_t step_cb(void *arg, uint64_t now)
+static uint32_t step_cb(void *arg, uint32_t now)
 {
     (void)arg;
     const struct pk_hal *h = &pk_avr_board.hal;
@@ -36,14 +36,14 @@ static uint64_t step_cb(void *arg, uint64_t now)
         pk_hal_step_write(h, 1u, 0u);
         high = 0u;
         if (--steps_left == 0u)
-            return 0u;
+            return PK_HAL_TIMER_STOP;
         t_next += PERIOD_TICKS;
-        return t_next > now ? t_next : now + 1u;
+        return (int32_t)(t_next - now) > 0 ? t_next - now : 1u;
     }
     pk_hal_step_write(h, 1u, 1u);
     high = 1u;
     steps_done++;
-    return now + PULSE_TICKS;
+    return PULSE_TICKS;
 }
 
 /* A 32-bit value the step interrupt writes, read whole: with interrupts on,
@@ -135,8 +135,9 @@ int main(void)
             uint32_t k = parse_u32(line + 1, (uint8_t)(n - 1u));
             if (k > 0u) {
                 steps_left = k;
-                t_next = pk_avr_clock_ticks(&pk_avr_board) + PERIOD_TICKS;
-                (void)pk_avr_timer_start(&pk_avr_board, step_cb, NULL, t_next);
+                uint64_t first = pk_avr_clock_ticks(&pk_avr_board) + PERIOD_TICKS;
+                t_next = (uint32_t)first;
+                (void)pk_avr_timer_start(&pk_avr_board, step_cb, NULL, first);
                 while (read_isr_u32(&steps_left))
                     ;
             }

@@ -194,13 +194,13 @@ static void advance(uint64_t until)
     while (H.cb != NULL && H.next <= until) {
         if (H.next > H.now)
             H.now = H.next;
-        uint64_t nx = H.cb(H.arg, H.now);
-        if (nx == 0) {
+        uint32_t delay = H.cb(H.arg, (uint32_t)H.now);
+        if (delay == PK_HAL_TIMER_STOP) {
             H.cb = NULL;
             break;
         }
-        FZ_CHECK(nx > H.now, "the step timer asks for a later tick");
-        H.next = nx;
+        FZ_CHECK(delay > 0u, "the step timer asks for a later tick");
+        H.next = H.now + delay;
     }
     if (until > H.now)
         H.now = until;

@@ -126,12 +126,14 @@ void pk_board_tim2_irq(void)
             now = now_irqoff();
             d = ahead_of(now);
         }
-        uint64_t next = board.cb(board.cb_arg, t64(now));
-        if (next == 0u) {
+        uint64_t t = t64(now);
+        uint32_t delay = board.cb(board.cb_arg, (uint32_t)t);
+        if (delay == PK_HAL_TIMER_STOP) {
             TIM_DIER(TIM2_BASE) &= ~TIM_DIER_CC1IE;
             board.armed = 0u;
             return;
         }
+        uint64_t next = t + delay;
         board.next_lo = (uint16_t)next;
         board.next_hi = (uint32_t)(next >> 16);
     }

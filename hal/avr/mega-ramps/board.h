@@ -22,7 +22,8 @@
  *   serial      D0 D1     PE0 PE1  USART0 (the USB serial), 115200 8N1, U2X
  *
  * Timers: Timer3 (16-bit, clk/8 = 2 MHz, free running) is the step timer:
- * compare A schedules the callback, overflow extends the count to 48 bits.
+ * compare A schedules the callback, compare B ends the step pulses, overflow
+ * extends the count to 48 bits.
  * Timer1 makes the servo pulses (the SERVO0 pin is its OC1A).
  */
 #ifndef PLOTKIN_BOARD_MEGA_RAMPS_H
@@ -49,6 +50,11 @@
 #define PK_BOARD_STEP_TOV TOV3
 #define PK_BOARD_STEP_COMP_vect TIMER3_COMPA_vect
 #define PK_BOARD_STEP_OVF_vect TIMER3_OVF_vect
+/* compare B (same timer) ends the step pulses; OC3B's pin is not driven */
+#define PK_BOARD_PULSE_OCR OCR3B
+#define PK_BOARD_PULSE_OCIE OCIE3B
+#define PK_BOARD_PULSE_OCF OCF3B
+#define PK_BOARD_PULSE_COMP_vect TIMER3_COMPB_vect
 
 /* ---- serial: USART0 ----------------------------------------------------- */
 #define PK_BOARD_BAUD 115200ul

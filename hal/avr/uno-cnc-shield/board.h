@@ -23,7 +23,8 @@
  *                                      as Grbl)
  *
  * Timers: Timer1 (16-bit, clk/8 = 2 MHz, free running) is the step timer:
- * compare A schedules the callback, overflow extends the count to 48 bits.
+ * compare A schedules the callback, compare B ends the step pulses, overflow
+ * extends the count to 48 bits.
  * Timer2 (8-bit) makes the servo pulses; Timer0 is unused.
  */
 #ifndef PLOTKIN_BOARD_UNO_CNC_SHIELD_H
@@ -50,6 +51,12 @@
 #define PK_BOARD_STEP_TOV TOV1
 #define PK_BOARD_STEP_COMP_vect TIMER1_COMPA_vect
 #define PK_BOARD_STEP_OVF_vect TIMER1_OVF_vect
+/* compare B (same timer) ends the step pulses; OC1B's pin (D10, a limit
+ * input) is not driven */
+#define PK_BOARD_PULSE_OCR OCR1B
+#define PK_BOARD_PULSE_OCIE OCIE1B
+#define PK_BOARD_PULSE_OCF OCF1B
+#define PK_BOARD_PULSE_COMP_vect TIMER1_COMPB_vect
 
 /* ---- serial: USART0 ----------------------------------------------------- */
 #define PK_BOARD_BAUD 115200ul
