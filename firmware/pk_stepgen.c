@@ -629,9 +629,11 @@ void pk_sg_flush(struct pk_stepgen *sg)
 #if defined(__GNUC__) || defined(__clang__)
 #define SG_COLD __attribute__((noinline, cold))
 #define SG_NOINLINE __attribute__((noinline))
+#define SG_INLINE __attribute__((always_inline))
 #else
 #define SG_COLD
 #define SG_NOINLINE
+#define SG_INLINE
 #endif
 
 static SG_COLD uint32_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
@@ -717,7 +719,7 @@ static SG_COLD uint32_t isr_watch_stop(struct pk_stepgen *sg)
 /* The time of the pending event: whole ticks (32 bits, wrapping, as the
  * HAL's timer callback sees them) and a Q16 fraction; d_q16 is a time in
  * ticks Q16 (|d_q16| < 2^31). No 64-bit arithmetic on the step path. */
-static inline void t_add(struct pk_stepgen *sg, int32_t d_q16)
+static inline SG_INLINE void t_add(struct pk_stepgen *sg, int32_t d_q16)
 {
     uint32_t f = (uint32_t)sg->next_f + ((uint32_t)d_q16 & 0xFFFFu);
     sg->next_t += (uint32_t)(d_q16 >> 16) + (f >> 16);
@@ -734,7 +736,7 @@ static inline void t_add(struct pk_stepgen *sg, int32_t d_q16)
  * low_until - 2 pulse_ticks. 0: none in flight; 1: the pulse is high
  * (*wait = ticks until it ends); 2: it has ended, the line must stay low
  * for *wait more ticks. */
-static inline uint8_t pulse_state(const struct pk_stepgen *sg, uint32_t now, uint32_t *wait)
+static inline SG_INLINE uint8_t pulse_state(const struct pk_stepgen *sg, uint32_t now, uint32_t *wait)
 {
     if (!sg->pulse_hot)
         return 0u;
@@ -751,12 +753,15 @@ static inline uint8_t pulse_state(const struct pk_stepgen *sg, uint32_t now, uin
 
 /* The ring's tail chunks once the current one is done (left == 0): run the
  * ones that are not steps (a line block's set-up, tool, spindle, waits) and
- * set up the next chunk of events. Returns 1 with an event set up (left >
- * 0), or 0 with *ret what the callback returns. *earliest: no step edge
- * before it (direction set-up). Once per chunk: out of line. */
-static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now,
-                                      uint32_t *earliest, uint32_t *ret)
+ * set up the next chunk of events. Returns with an event set up (left > 0;
+ * the result is then unused), or with left == 0 and what the callback
+ * returns. sg->earliest: no step edge before it (moved by a direction
+ * change). Once per chunk: out of line, so that the step path does not pay
+ * for its registers. */
+static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
+    uint32_t ret;
+    uint32_t *earliest = &sg->earliest;
     const uint32_t all = (1u << sg->axes) - 1u;
     for (;;) {
         uint8_t t = sg->tail;
@@ -765,13 +770,13 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
         if (t == h) {
             sg->v_um_s = 0u;
             sg->busy = false;
-            *ret = PK_HAL_TIMER_STOP;
-            return 0;
+            ret = PK_HAL_TIMER_STOP;
+            return ret;
         }
         struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
         if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
-            *ret = isr_watch_stop(sg);
-            return 0;
+            ret = isr_watch_stop(sg);
+            return ret;
         }
         switch (c->kind) {
         case PK_SGC_BLOCK:
@@ -780,15 +785,15 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
                 if (pulse_state(sg, now, &w) == 1u) {
                     /* the last step's pulse is still high: change the
                      * directions once it has ended (this chunk again) */
-                    *ret = w;
-                    return 0;
+                    ret = w;
+                    return ret;
                 }
             }
             if (c->spindle != sg->spindle_cur) {
                 int r = pk_hal_spindle_write(hal, c->spindle);
                 if (r != 0 && r != PK_HAL_ENOSYS) {
-                    *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return 0;
+                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                    return ret;
                 }
                 sg->spindle_cur = c->spindle;
             }
@@ -799,8 +804,8 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
             sg->period = c->u.blk.period;
             if (c->arg != sg->dir_cur) {
                 if (pk_hal_dir_write(hal, all, c->arg) != 0) {
-                    *ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
-                    return 0;
+                    ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
+                    return ret;
                 }
                 sg->dir_cur = c->arg;
                 uint32_t e = now + sg->dir_setup_ticks;
@@ -827,8 +832,8 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
                 c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
                 sg->next_t += SG_SLOW_SPLIT;
                 sg->v_um_s = c->v_um_s;
-                *ret = sg->next_t - now;
-                return 0;
+                ret = sg->next_t - now;
+                return ret;
             }
             sg->left = 1;
             sg->next_t += tk;
@@ -840,14 +845,14 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
         }
         default: {
             if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
-                *ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
-                return 0;
+                ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+                return ret;
             }
             if (c->kind == PK_SGC_SPINDLE) {
                 int r = pk_hal_spindle_write(hal, c->spindle);
                 if (r != 0 && r != PK_HAL_ENOSYS) {
-                    *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return 0;
+                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                    return ret;
                 }
                 sg->spindle_cur = c->spindle;
             }
@@ -861,42 +866,76 @@ static SG_NOINLINE int isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal
             sg->tail = (uint8_t)(t + 1u);
             sg->next_t = now + w;
             sg->next_f = 0u;
-            *ret = w;
-            return 0;
+            ret = w;
+            return ret;
         }
         }
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
         if (sg->left != 0u)
-            return 1;
+            return 0u;
     }
+}
+
+/* The end of a pulse the core times itself (no step_pulse): lower the lines.
+ * 0 to go on, else what the callback returns. */
+static SG_NOINLINE uint32_t isr_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    const uint32_t all = (1u << sg->axes) - 1u;
+    if (pk_hal_step_write(hal, all, 0u) != 0)
+        return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+    sg->phase = PK_SGP_GAP;
+    if (sg->kill) {
+        /* a reset came while this pulse was high: it has had its full
+         * width, the line is low, stop here */
+        sg->kill = 0;
+        sg->v_um_s = 0u;
+        sg->busy = false;
+        return PK_HAL_TIMER_STOP;
+    }
+    return 0u;
+}
+
+/* The first call after (re)arming: the schedule ended at or before the stop
+ * (a dwell cut short by a reset: after it), restart it from now. */
+static SG_COLD void isr_restart(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
+    sg->restart = false;
+    sg->hw_pulse = hal->ops->step_pulse != NULL;
+    if (sg->next_t != now) {
+        sg->next_t = now;
+        sg->next_f = 0u;
+    }
+}
+
+/* The axes due at this event (Bresenham over the block's events). */
+static inline SG_INLINE uint32_t isr_bresenham(struct pk_stepgen *sg)
+{
+    uint32_t mask = 0;
+    const int32_t period = (int32_t)sg->period;
+    for (unsigned i = 0; i < PK_AXES; i++) {
+        if (i >= sg->axes)
+            break;
+        int32_t a = sg->acc[i] + (int32_t)sg->inc[i];
+        if (a >= 0) {
+            a -= period;
+            mask |= 1u << i;
+        }
+        sg->acc[i] = a;
+    }
+    return mask;
 }
 
 uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
     if (sg->alarm != 0)
         return isr_alarm(sg, sg->alarm);
-    if (sg->restart) {
-        /* the schedule ended at or before the stop (a dwell cut short by a
-         * reset: after it): restart it from now */
-        sg->restart = false;
-        sg->hw_pulse = hal->ops->step_pulse != NULL;
-        if (sg->next_t != now) {
-            sg->next_t = now;
-            sg->next_f = 0u;
-        }
-    }
+    if (sg->restart)
+        isr_restart(sg, hal, now);
     uint32_t earliest = now;
-    if (sg->phase == PK_SGP_STEP_DUE) {
-        const uint32_t all = (1u << sg->axes) - 1u;
-        uint32_t mask = 0;
-        for (unsigned i = 0; i < sg->axes; i++) {
-            sg->acc[i] += (int32_t)sg->inc[i];
-            if (sg->acc[i] >= 0) {
-                sg->acc[i] -= (int32_t)sg->period;
-                mask |= 1u << i;
-            }
-        }
+    const uint8_t phase = sg->phase;
+    if (phase == PK_SGP_STEP_DUE) {
+        uint32_t mask = isr_bresenham(sg);
         /* armed, and something to do: inputs to read, a watch fired, an axis locked */
         if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
             int32_t w = watch_event(sg, hal, mask);
@@ -906,59 +945,54 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
         }
         if (sg->hw_pulse) {
             /* the backend ends the pulse: on to the next event in this call */
-            if (mask != 0u) {
-                if (pk_hal_step_pulse(hal, mask, sg->pulse_ticks) != 0)
-                    return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-                sg->low_until = now + 2u * sg->pulse_ticks;
-                sg->pulse_hot = 1u;
-                earliest = sg->low_until;
-            }
             sg->phase = PK_SGP_GAP;
+            if (mask != 0u) {
+                if (hal->ops->step_pulse(hal->ctx, mask, mask & ~hal->step_invert, sg->pulse_ticks) != 0)
+                    return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+                earliest = now + 2u * sg->pulse_ticks;
+                sg->low_until = earliest;
+                sg->pulse_hot = 1u;
+            }
         } else {
-            if (pk_hal_step_write(hal, all, mask) != 0)
+            if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
                 return isr_alarm(sg, PK_ALARM_STEP_WRITE);
             sg->phase = PK_SGP_PULSE;
         }
-        for (unsigned i = 0; i < sg->axes; i++)
+        const uint8_t dir = sg->dir_cur;
+        for (unsigned i = 0; i < PK_AXES; i++)
             if (mask & (1u << i))
-                sg->pos[i] += (sg->dir_cur & (1u << i)) ? 1 : -1;
+                sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
         if (sg->phase == PK_SGP_PULSE)
             return sg->pulse_ticks;
-    } else if (sg->phase == PK_SGP_PULSE) {
-        const uint32_t all = (1u << sg->axes) - 1u;
-        if (pk_hal_step_write(hal, all, 0u) != 0)
-            return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-        sg->phase = PK_SGP_GAP;
-        if (sg->kill) {
-            /* a reset came while this pulse was high: it has had its full
-             * width, the line is low, stop here */
-            sg->kill = 0;
-            sg->v_um_s = 0u;
-            sg->busy = false;
-            return PK_HAL_TIMER_STOP;
-        }
+    } else if (phase == PK_SGP_PULSE) {
+        uint32_t r = isr_pulse_low(sg, hal);
+        if (r != 0u)
+            return r;
     } else {
         uint32_t w;
         if (pulse_state(sg, now, &w) != 0u)
             earliest = sg->low_until; /* after a wait or a restart */
     }
     if (sg->left == 0u) {
-        uint32_t ret;
-        if (!isr_next_chunk(sg, hal, now, &earliest, &ret))
-            return ret;
+        sg->earliest = earliest;
+        uint32_t r = isr_next_chunk(sg, hal, now);
+        if (sg->left == 0u)
+            return r;
+        earliest = sg->earliest;
     }
-    const uint32_t ival = (uint32_t)sg->I;
-    t_add(sg, sg->I);
-    sg->I += sg->A;
+    /* the event's time: t += I, I += A (32-bit, the fraction in 16 bits) */
+    const int32_t I = sg->I;
+    t_add(sg, I);
+    sg->I = I + sg->A;
     sg->left--;
     /* Late by more than the interval itself (the timer callback was held
      * up, or the main loop published the chunk after its time): the
      * schedule moves to now instead of catching up, which would fire the
      * missed steps back to back at whatever rate the callback manages.
-     * (next + ival < now in Q16, with behind = now - next in ticks:
-     * ival < 2^30, so behind >= 2^15 is always late.) */
+     * (next + I < now in Q16, with behind = now - next in ticks: I < 2^30,
+     * so behind >= 2^15 is always late.) */
     const int32_t behind = (int32_t)(now - sg->next_t);
-    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)sg->next_f + ival)) {
+    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)sg->next_f + (uint32_t)I)) {
         sg->next_t = now;
         sg->next_f = 0u;
         sg->late++;

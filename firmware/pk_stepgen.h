@@ -125,6 +125,62 @@ struct pk_stepgen {
     uint32_t tick_hz;
     uint32_t pulse_ticks, dir_setup_ticks;
 
+    /* ---- timer-side state (ISR only, except as noted). First in the struct:
+     *      an AVR reaches the first 64 bytes with one displacement load ---- */
+    uint8_t phase;             /**< enum pk_sg_phase */
+    uint8_t dir_cur;           /**< direction lines as last written (logical) */
+    uint8_t hw_pulse;          /**< the HAL ends step pulses itself (step_pulse):
+                                    one callback per step event */
+    uint8_t pulse_hot;         /**< hw_pulse: a pulse raised at low_until - 2 pulse_ticks
+                                    may still be high or in its low time */
+    uint16_t next_f;           /**< fraction of a tick of next_t, Q16 */
+    uint16_t left;             /**< events left in the current chunk */
+    uint32_t next_t;           /**< tick of the last scheduled event (the HAL
+                                    callback's 32-bit wrapping ticks) */
+    int32_t I, A;              /**< interval and its change per event, ticks Q16
+                                    (chunks are at most PK_SG_CHUNK_TICKS_MAX long,
+                                    so |I| < 2^30) */
+    uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
+    uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
+    uint32_t period;           /**< Bresenham period of the block running */
+    int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
+                                    event when its accumulator reaches 0 */
+    uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
+    pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
+    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed (see below) */
+    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    uint16_t spindle_cur;      /**< spindle value as last written */
+    uint8_t mask_due;          /**< axes to step at the pending edge */
+    volatile uint8_t busy;     /**< 1 from timer_start until the ISR stops the timer */
+    volatile uint8_t kill;     /**< reset came during a pulse: the ISR ends it on
+                                    time, then stops (finding M2) */
+    volatile uint16_t late;    /**< events that found their time passed by more than their
+                                    interval and moved the schedule (ISR counts; a
+                                    diagnostic: 0 whenever the main loop keeps up) */
+    volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
+                                    torn read on 8-bit targets only skews a report) */
+    uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
+    uint64_t tick_num;         /**< tick_hz * 2^13 (segment clocks) */
+    uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
+    uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
+    uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
+    uint32_t kdv_q24;          /**< seg_max * 16 / tick_hz, Q24: dv_q4 = accel * this */
+
+    /* ---- input watches (MAIN arms and clears them under irq_save; the ISR
+     *      and the edge callback read them and set fired / lock) ---- */
+    volatile uint8_t fired;    /**< watch bits that have fired since armed */
+    volatile uint8_t lock;     /**< HOME: axes whose switch has tripped (they step no more) */
+    uint8_t home_axes;         /**< HOME: the axes homed */
+    uint8_t probe_level;       /**< PROBE: logical probe level that fires (1 touch, 0 leave) */
+    uint8_t poll_in;           /**< 1: the board reports no edges: read the inputs at
+                                    every step event while a watch is armed */
+    uint16_t in_flip;          /**< PK_IN_* bits flipped on top of the board's polarity
+                                    (Grbl $5 / $6) */
+    volatile uint16_t in_now;  /**< logical input levels last seen */
+    volatile uint16_t in_rise; /**< inputs that became active since MAIN last took them */
+    pk_steps_t probe_pos[PK_AXES]; /**< PROBE: position when it fired */
+
     /* ---- main-loop preparation state ---- */
     bool prep_active;          /**< the mq tail block is being cut into chunks */
     bool blk_sent;             /**< its BLOCK slot is in the ring */
@@ -155,60 +211,6 @@ struct pk_stepgen {
     struct pk_sg_chunk ring[PK_SG_CHUNKS];
     volatile uint8_t head;     /**< chunks published (mod 256) */
     volatile uint8_t tail;     /**< chunks consumed (mod 256) */
-
-    /* ---- timer-side state (ISR only, except as noted) ---- */
-    uint8_t phase;             /**< enum pk_sg_phase */
-    uint8_t dir_cur;           /**< direction lines as last written (logical) */
-    uint16_t spindle_cur;      /**< spindle value as last written */
-    uint8_t mask_due;          /**< axes to step at the pending edge */
-    uint32_t left;             /**< events left in the current chunk */
-    int32_t I, A;              /**< interval and its change per event, ticks Q16
-                                    (chunks are at most PK_SG_CHUNK_TICKS_MAX long,
-                                    so |I| < 2^30) */
-    uint32_t next_t;           /**< tick of the last scheduled event (the HAL
-                                    callback's 32-bit wrapping ticks) ... */
-    uint16_t next_f;           /**< ... and its fraction of a tick, Q16 */
-    uint8_t hw_pulse;          /**< the HAL ends step pulses itself (step_pulse):
-                                    one callback per step event */
-    uint8_t pulse_hot;         /**< hw_pulse: a pulse raised at low_until - 2 pulse_ticks
-                                    may still be high or in its low time */
-    uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
-    uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
-    uint32_t period;
-    int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
-                                    event when its accumulator reaches 0 */
-    volatile uint8_t busy;     /**< 1 from timer_start until the ISR returns 0 */
-    volatile uint8_t kill;     /**< reset came during a pulse: the ISR ends it on
-                                    time, then stops (finding M2) */
-    bool restart;              /**< ISR: first call after (re)arming: rebase time */
-    uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
-    uint64_t tick_num;         /**< tick_hz * 2^13 (segment clocks) */
-    uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
-    uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
-    uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
-    uint32_t kdv_q24;          /**< seg_max * 16 / tick_hz, Q24: dv_q4 = accel * this */
-    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
-    volatile uint16_t late;    /**< events that found their time passed by more than their
-                                    interval and moved the schedule (ISR counts; a
-                                    diagnostic: 0 whenever the main loop keeps up) */
-    volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
-                                    torn read on 8-bit targets only skews a report) */
-    pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
-
-    /* ---- input watches (MAIN arms and clears them under irq_save; the ISR
-     *      and the edge callback read them and set fired / lock) ---- */
-    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed */
-    volatile uint8_t fired;    /**< watch bits that have fired since armed */
-    volatile uint8_t lock;     /**< HOME: axes whose switch has tripped (they step no more) */
-    uint8_t home_axes;         /**< HOME: the axes homed */
-    uint8_t probe_level;       /**< PROBE: logical probe level that fires (1 touch, 0 leave) */
-    uint8_t poll_in;           /**< 1: the board reports no edges: read the inputs at
-                                    every step event while a watch is armed */
-    uint16_t in_flip;          /**< PK_IN_* bits flipped on top of the board's polarity
-                                    (Grbl $5 / $6) */
-    volatile uint16_t in_now;  /**< logical input levels last seen */
-    volatile uint16_t in_rise; /**< inputs that became active since MAIN last took them */
-    pk_steps_t probe_pos[PK_AXES]; /**< PROBE: position when it fired */
 };
 
 /**

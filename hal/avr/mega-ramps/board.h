@@ -111,7 +111,7 @@ static inline void pk_board_pins_init(void)
 }
 
 /** [ISR] Step lines: bit 0 X (PF0), bit 1 Y (PF6), bit 2 Z (PL3). */
-static inline void pk_board_step_write(uint8_t mask, uint8_t levels)
+static inline __attribute__((always_inline)) void pk_board_step_write(uint8_t mask, uint8_t levels)
 {
     uint8_t mf = (uint8_t)(((mask & 1u) ? _BV(PF0) : 0u) | ((mask & 2u) ? _BV(PF6) : 0u));
     uint8_t vf = (uint8_t)(((levels & 1u) ? _BV(PF0) : 0u) | ((levels & 2u) ? _BV(PF6) : 0u));

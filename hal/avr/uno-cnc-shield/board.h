@@ -109,7 +109,7 @@ static inline void pk_board_pins_init(void)
 }
 
 /** [ISR] Step lines: bit i of mask/levels is axis i (X PD2, Y PD3, Z PD4). */
-static inline void pk_board_step_write(uint8_t mask, uint8_t levels)
+static inline __attribute__((always_inline)) void pk_board_step_write(uint8_t mask, uint8_t levels)
 {
     uint8_t m = (uint8_t)((mask & 0x07u) << 2);
     PORTD = (uint8_t)((PORTD & (uint8_t)~m) | ((uint8_t)(levels << 2) & m));
