@@ -124,10 +124,10 @@ if command -v socat >/dev/null; then
   "$BUILD/plotkin" serve --device "$tmp/nmA" --baud 115200 >"$tmp/dout" 2>&1 &
   srv=$!
   for _ in $(seq 100); do grep -q "at 115200 baud" "$tmp/dout" 2>/dev/null && break; sleep 0.05; done
-  got=$(printf 'G0 X3 Y2\n$I\n' | timeout 10 socat -t 1 - "FILE:$tmp/nmB,raw,echo=0" 2>&1)
+  got=$(printf 'G0 X3 Y2\nG4 P0\n$I\n' | timeout 10 socat -t 1 - "FILE:$tmp/nmB,raw,echo=0" 2>&1)
   kill -TERM "$srv"; wait "$srv"; rc=$?; srv=""
   kill "$nm" 2>/dev/null; wait "$nm" 2>/dev/null
-  if [[ $rc -eq 0 ]] && echo "$got" | grep -q '^\[OPT:,[0-9]*,128\]' && grep -q "position X3.000 Y2.000" "$tmp/dout"; then
+  if [[ $rc -eq 0 ]] && echo "$got" | grep -q '^\[OPT:VM,[0-9]*,128\]' && grep -q "position X3.000 Y2.000" "$tmp/dout"; then
     ok "serve --device speaks Grbl on a real tty in raw mode"
   else
     bad "serve --device speaks Grbl on a real tty in raw mode" "$got" "$(cat "$tmp/dout")"

@@ -37,10 +37,13 @@ static void start(void)
 {
     struct pk_grbl_settings set;
     pk_grbl_settings_default(&set);
-    set.v[PK_GRBL_S_STEPS_X] = set.v[PK_GRBL_S_STEPS_Y] = set.v[PK_GRBL_S_STEPS_Z] =
-        (pk_gc_u6_t)1000 * 1000000;
-    set.v[PK_GRBL_S_PEN_SETTLE_MS] = 0;
-    set.v[PK_GRBL_S_STEP_PULSE_US] = (pk_gc_u6_t)2 * 1000000; /* 100 k steps/s needs short pulses */
+    (void)pk_grbl_settings_apply(&set, "$100=1000");
+    (void)pk_grbl_settings_apply(&set, "$101=1000");
+    (void)pk_grbl_settings_apply(&set, "$102=1000");
+    (void)pk_grbl_settings_apply(&set, "$205=0");
+    (void)pk_grbl_settings_apply(&set, "$0=3"); /* 100 k steps/s needs short pulses */
+    (void)pk_grbl_settings_apply(&set, "$110=4000"); /* at 2000 steps/mm too: 133 k steps/s */
+    (void)pk_grbl_settings_apply(&set, "$111=4000");
     pk_grbl_sim_free(&S);
     TH_ASSERT_EQ(pk_grbl_sim_init(&S, 1000000, &set), 0);
     outn = 0;
