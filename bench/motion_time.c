@@ -11,9 +11,8 @@
  * motion time is the tick of the last step edge. "ideal" is a perfect
  * trapezoid (accelerate at 1000 mm/s^2, cruise at the feed, decelerate) over
  * the polyline's length, as if the path had no corners at all. Deviation is
- * the Hausdorff distance between the executed polyline and the limit curve of
- * the same strokes (the kernel's depth-8 polygon, cubic B-spline, split at
- * the same sharp corners).
+ * the Hausdorff distance between the executed polyline (the stroke assembler's
+ * points) and the programmed polyline.
  */
 #include <math.h>
 #include <stdio.h>
@@ -86,61 +85,13 @@ static double one_sided(const struct poly *a, const struct poly *b)
     return worst;
 }
 
-/* What the machine sees when the stroke starts: its request FIFO holds the
- * first PK_MACHINE_INQ moves, whose largest second difference sets the depth
- * (pk_stroke.h); a later vertex beyond that depth's capacity splits. */
-static uint32_t hint_um(const struct poly *in)
-{
-    double m = 0;
-    for (size_t i = 1; i + 1 < in->n && i + 1 <= PK_MACHINE_INQ; i++)
-        m = fmax(m, hypot(in->p[i - 1][0] - 2 * in->p[i][0] + in->p[i + 1][0],
-                          in->p[i - 1][1] - 2 * in->p[i][1] + in->p[i + 1][1]));
-    return (uint32_t)m; /* the machine's isqrt floors too */
-}
-
-static double cap_um(const struct poly *in, pk_um_t tol)
-{
-    uint32_t m = hint_um(in);
-    if (m < (uint32_t)tol * 16u)
-        m = (uint32_t)tol * 16u;
-    return (double)tol * pow(4, pk_stroke_depth_for(m, tol));
-}
-
-/* the limit curve of the strokes: split at turns sharper than SHARP degrees
- * and (tolerance mode) where the second difference exceeds the depth's
- * capacity, exactly where the stroke assembler splits */
-static void reference(const struct poly *in, struct poly *ref, double cap)
+/* The deviation is measured against the programmed polyline itself (the
+ * tolerance mode's promise: within T of it). */
+static void reference(const struct poly *in, struct poly *ref)
 {
     ref->n = 0;
-    size_t s0 = 0;
-    for (size_t i = 1; i < in->n; i++) {
-        int split = i + 1 == in->n;
-        if (!split) {
-            double ax = in->p[i][0] - in->p[i - 1][0], ay = in->p[i][1] - in->p[i - 1][1];
-            double bx = in->p[i + 1][0] - in->p[i][0], by = in->p[i + 1][1] - in->p[i][1];
-            double c = (ax * bx + ay * by) / (hypot(ax, ay) * hypot(bx, by));
-            split = c < cos(SHARP * M_PI / 180.0) || hypot(bx - ax, by - ay) > cap;
-        }
-        if (!split)
-            continue;
-        struct pk_refine r;
-        struct pk_refine_cfg c;
-        memset(&c, 0, sizeof c);
-        c.degree = 3;
-        c.depth = 8;
-        pk_refine_init(&r, &c);
-        struct pk_refine_out o;
-        for (size_t k = s0; k <= i; k++) {
-            pk_um_t p[PK_AXES] = { (pk_um_t)in->p[k][0], (pk_um_t)in->p[k][1] };
-            pk_refine_push(&r, p);
-            while (pk_refine_pull(&r, &o) == PK_OK)
-                add(ref, o.p[0], o.p[1]);
-        }
-        pk_refine_finish(&r);
-        while (pk_refine_pull(&r, &o) == PK_OK)
-            add(ref, o.p[0], o.p[1]);
-        s0 = i;
-    }
+    for (size_t i = 0; i < in->n; i++)
+        add(ref, in->p[i][0], in->p[i][1]);
 }
 
 static void circle(struct poly *q, int nseg)
@@ -214,7 +165,7 @@ struct row {
 static struct row run(const struct poly *in, uint8_t mode)
 {
     struct poly ref = { 0, malloc(sizeof(double[2]) * MAXP) };
-    reference(in, &ref, mode == PK_SMOOTH_TOLERANCE ? cap_um(in, 10) : 1e300);
+    reference(in, &ref);
     static struct pk_machine m;
     struct pk_rec rec;
     pk_rec_init(&rec, 1000000);
@@ -257,15 +208,15 @@ static struct row run(const struct poly *in, uint8_t mode)
     r.segs = pk_machine_lines_planned(&m);
     /* executed path: the stroke assembler alone, same policy */
     static struct pk_stroke st;
-    pk_stroke_init(&st, &c.smooth);
+    pk_stroke_init(&st, &c.smooth, 2);
     struct poly out = { 0, malloc(sizeof(double[2]) * MAXP) };
     pk_um_t p[PK_AXES] = { (pk_um_t)in->p[0][0], (pk_um_t)in->p[0][1] }, o[PK_AXES];
     add(&out, p[0], p[1]);
-    pk_stroke_begin(&st, p, hint_um(in));
+    pk_stroke_begin(&st, p);
     for (size_t i = 1; i < in->n; i++) {
         p[0] = (pk_um_t)in->p[i][0];
         p[1] = (pk_um_t)in->p[i][1];
-        while (pk_stroke_add(&st, p) == PK_EBUSY)
+        while (pk_stroke_add(&st, p, 0) == PK_EBUSY)
             while (pk_stroke_pull(&st, o) == PK_OK)
                 add(&out, o[0], o[1]);
         while (pk_stroke_pull(&st, o) == PK_OK)

@@ -48,6 +48,20 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
     return 0;
 }
 
+/* Does the step position fit the µm range with these steps/mm? (Grbl keeps
+ * the steps when steps/mm change; the mm position follows, and must stay a
+ * position the machine can represent.) */
+static bool pos_fits(const pk_steps_t pos[PK_AXES], const struct pk_motion_cfg *c)
+{
+    uint32_t axes = c->axes ? c->axes : PK_AXES;
+    for (uint32_t i = 0; i < axes; i++) {
+        int64_t um = ((int64_t)pos[i] * ((int64_t)1000 << PK_SPMM_Q16_SHIFT)) / c->steps_per_mm_q16[i];
+        if (um > PK_UM_MAX || um < -PK_UM_MAX)
+            return false;
+    }
+    return true;
+}
+
 /* Build the modules from m->cfg (everything but the pins and the position). */
 static void setup_modules(struct pk_machine *m)
 {
@@ -57,13 +71,22 @@ static void setup_modules(struct pk_machine *m)
     memset(&lim, 0, sizeof lim);
     lim.axes = m->cfg.axes;
     for (uint32_t i = 0; i < axes_of(m); i++) {
-        lim.max_rate[i] = pk_um_min_to_um_s(cfg->max_rate[i]);
+        lim.max_rate[i] = cfg->max_rate[i];
         lim.accel[i] = cfg->accel[i];
     }
     lim.junction_dev_um = cfg->junction_dev_um;
+    lim.accel_min = cfg->accel[0];
+    for (uint32_t i = 1; i < axes_of(m); i++)
+        if (cfg->accel[i] < lim.accel_min)
+            lim.accel_min = cfg->accel[i];
     pk_planner_init(&m->planner, &lim);
     pk_mq_init(&m->mq);
-    pk_stroke_init(&m->stroke, &cfg->smooth);
+    pk_stroke_init(&m->stroke, &cfg->smooth, m->cfg.axes);
+    struct pk_planner_dyn dyn;
+    pk_planner_dyn(&lim, &dyn);
+    pk_stroke_set_dyn(&m->stroke, &dyn);
+    m->stroke.observe = m->observe;
+    m->stroke.observe_ctx = m->observe_ctx;
     pk_sg_init(&m->sg, m->cfg.axes, hal->tick_hz, cfg->step_pulse_ticks, cfg->dir_setup_ticks);
 }
 
@@ -74,7 +97,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
         return PK_MOTION_EINVAL;
     if (pk_hal_check(hal) != PK_HAL_OK)
         return PK_MOTION_EHAL;
-    if (hal->tick_hz > ((uint32_t)1 << 25) || check_cfg(cfg, hal->tick_hz) != 0)
+    if (hal->tick_hz > ((uint32_t)1 << 24) || check_cfg(cfg, hal->tick_hz) != 0)
         return PK_MOTION_EINVAL;
     memset(m, 0, sizeof *m);
     m->cfg = *cfg;
@@ -109,6 +132,8 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
         return PK_MOTION_EBUSY;
     pk_steps_t pos[PK_AXES];
     memcpy(pos, m->sg.pos, sizeof pos);
+    if (!pos_fits(pos, cfg))
+        return PK_MOTION_ERANGE;
     uint8_t dir = m->sg.dir_cur, alarm = m->sg.alarm;
     uint32_t lines = m->lines_planned;
     m->cfg = *cfg;
@@ -123,7 +148,7 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     m->sg.dir_cur = dir;
     m->sg.alarm = alarm;
     m->lines_planned = lines;
-    pk_planner_set_override(&m->planner, &m->mq, m->ovr_feed_pct, m->ovr_rapid_pct);
+    pk_planner_set_override(&m->planner, m->ovr_feed_pct, m->ovr_rapid_pct);
     m->acc_n = 0;
     m->acc_policy = m->policy_applied = cfg->smooth;
     return PK_MOTION_OK;
@@ -364,7 +389,8 @@ int pk_machine_set_override(struct pk_machine *m, uint16_t feed_pct, uint16_t ra
         return PK_MOTION_ERANGE;
     m->ovr_feed_pct = feed_pct;
     m->ovr_rapid_pct = rapid_pct;
-    pk_planner_set_override(&m->planner, &m->mq, feed_pct, rapid_pct);
+    pk_planner_set_override(&m->planner, feed_pct, rapid_pct);
+    m->replan = true;
     return PK_MOTION_OK;
 }
 
@@ -397,69 +423,151 @@ static struct pk_req *req_at(struct pk_machine *m, uint32_t i)
     return &m->inq[(m->inq_head + i) % PK_MACHINE_INQ];
 }
 
-/** Plan a straight line from the planned position to p (µm). */
-static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_s_t feed)
+/* ----------------------------------------------------------- planning */
+
+/* An ideal coordinate in steps Q8: um * spmm_q16 / (1000 * 65536) * 256
+ * (|um * spmm| < 2^21 * 2^30 = 2^51). */
+static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
 {
-    int32_t d_um[PK_AXES];
-    pk_steps_t d_steps[PK_AXES], st[PK_AXES];
-    memset(d_um, 0, sizeof d_um);
-    memset(d_steps, 0, sizeof d_steps);
-    memset(st, 0, sizeof st);
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    return pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
+}
+
+/*
+ * Plan the straight move from the planned position (target_um, exactly; its
+ * whole steps target_steps) towards p, at most PK_PLANNER_MAX_STEPS steps of
+ * it per block. Returns 1 when p is reached, 0 when a piece was planned and
+ * more remain, -1 when the queue is full (nothing changed).
+ *
+ * In steps: each axis goes to round(p * steps/mm) (the position contract);
+ * the block's length is that of its steps (pk_planner.h). A move with no
+ * whole step adds no block and leaves target_steps as they are while the
+ * exact position moves on (its steps are taken by a later block, whose time
+ * covers them).
+ *
+ * Within a block the Bresenham starts from the EXACT position: with f the
+ * fraction of a step the exact start lies off its whole step (|f| <= 1/2, in
+ * the direction of motion) and D the exact displacement in steps, an axis is
+ * at round(f + j D / M) after event j of M: within half a step of the
+ * programmed segment at every event (plain Bresenham between rounded ends is
+ * off by up to a whole step). The accumulator counts in 1/(256 M) steps:
+ * start (256 f - 128) M, + 256 D per event, a step (and - 256 M) on reaching
+ * 0. An axis that makes M steps moves by less than 1 + 1/M per event, every
+ * other axis by less than 1, so one step per event always suffices; the start
+ * is nudged within [256 n - 256 D - 128, 256 n - 256 D + 127] so that the
+ * count is exactly the n steps the block owes (ties of the rounding).
+ */
+static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_min_t feed)
+{
+    const uint32_t axes = axes_of(m);
+    pk_um_t p[PK_AXES];
+    memcpy(p, p_in, sizeof p);
+    pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
+    uint32_t mx = 0;
+    for (uint32_t i = 0; i < axes; i++) {
         st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
+        n[i] = st[i] - m->target_steps[i];
+        uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
+        if (an > mx)
+            mx = an;
+    }
+    int done = 1;
+    if (mx > PK_PLANNER_MAX_STEPS) {
+        /* a piece along the way (the rest follows in later blocks) */
+        uint32_t k = (mx + PK_PLANNER_MAX_STEPS - 1u) / PK_PLANNER_MAX_STEPS;
+        for (uint32_t i = 0; i < axes; i++)
+            p[i] = (pk_um_t)(m->target_um[i] + ((int64_t)p_in[i] - m->target_um[i]) / (int64_t)k);
+        done = 0;
+        mx = 0;
+        for (uint32_t i = 0; i < axes; i++) {
+            st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
+            n[i] = st[i] - m->target_steps[i];
+            uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
+            if (an > mx)
+                mx = an;
+        }
+    }
+    if (mx == 0) {
+        memcpy(m->target_um, p, sizeof m->target_um);
+        if (done && m->line_sharp)
+            m->junction_sharp = true;  /* the corner moved to where the next block starts */
+        return done;
+    }
+    int64_t d_q8[PK_AXES] = { 0 };
+    for (uint32_t i = 0; i < axes; i++)   /* n * 1000 * 256 * 65536 / spmm: |n| <= 2^21 */
+        d_q8[i] = pk_div_round64((int64_t)n[i] * ((int64_t)256000 << PK_SPMM_Q16_SHIFT),
+                                 (int64_t)m->cfg.steps_per_mm_q16[i]);
+    int32_t d_um[PK_AXES] = { 0 };
+    for (uint32_t i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
-        d_steps[i] = st[i] - m->target_steps[i];
-    }
-    int r = pk_planner_add_line(&m->planner, &m->mq, d_um, d_steps, feed);
+    uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
+    if (m->sg.prep_active && pk_mq_count(&m->mq) == 1u)
+        flags |= PK_PLAN_PREV_LOCKED;   /* the only queued block is being cut */
+    int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, feed, flags);
     if (r < 0)
-        return false;
-    if (r > 0) {
-        m->lines_planned++;
-        pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u)->spindle = m->spindle_q16;
+        return -1;
+    struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
+    b->spindle = m->spindle_q16;
+    b->period = 256u * mx;
+    for (uint32_t i = 0; i < axes; i++) {
+        if (n[i] == 0) {
+            b->inc[i] = 0;
+            b->acc0[i] = -1;
+            continue;
+        }
+        int64_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
+        int64_t qa = um_to_q8steps(m->target_um[i], m->cfg.steps_per_mm_q16[i]);
+        int64_t qb = um_to_q8steps(p[i], m->cfg.steps_per_mm_q16[i]);
+        int64_t f = (qa - 256 * (int64_t)m->target_steps[i]) * sgn;
+        int64_t d = (qb - qa) * sgn;
+        if (d < 0)
+            d = 0;
+        int64_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
+        f = f < lo ? lo : f > hi ? hi : f;
+        b->inc[i] = (uint32_t)d;
+        b->acc0[i] = (int32_t)((f - 128) * (int64_t)mx);   /* |.| <= 512 * 2^21 */
     }
+    m->lines_planned++;
+    m->replan = true;
+    m->junction_sharp = done ? m->line_sharp : false; /* between pieces: straight on */
     memcpy(m->target_um, p, sizeof m->target_um);
     memcpy(m->target_steps, st, sizeof m->target_steps);
+    return done;
+}
+
+/* Plan the pending line (line_p) as far as the queue has room.
+ * Returns true when nothing is pending any more. */
+static bool flush_line(struct pk_machine *m)
+{
+    while (m->line_pending) {
+        int r = plan_piece(m, m->line_p, m->line_feed);
+        if (r < 0)
+            return false;
+        if (r > 0)
+            m->line_pending = false;
+    }
     return true;
 }
 
-/** Largest |second difference| (µm) over the feed moves at this feed visible
- *  in the FIFO, starting from the planned position. */
-static uint32_t d2_hint(struct pk_machine *m, uint32_t feed)
+/* Plan a straight move to p; sharp: p is a corner (the junction after it is
+ * a programmed corner, not a vertex of a smoothed curve). */
+static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_min_t feed, bool sharp)
 {
-    pk_um_t a[PK_AXES], b[PK_AXES];
-    uint32_t n = 1;
-    uint64_t best = 0;
-    memcpy(b, m->target_um, sizeof b);
-    memcpy(a, b, sizeof a);
-    for (uint32_t k = 0; k < m->inq_count; k++) {
-        const struct pk_req *r = req_at(m, k);
-        if (r->type != PK_REQ_MOVE || r->kind != PK_MOVE_FEED || r->arg != feed)
-            break;
-        if (n >= 2) {
-            uint64_t s = 0;
-            for (uint32_t i = 0; i < axes_of(m); i++) {
-                int64_t d = (int64_t)r->p[i] - 2 * (int64_t)b[i] + a[i];
-                s += (uint64_t)(d * d);
-            }
-            if (s > best)
-                best = s;
-        }
-        memcpy(a, b, sizeof a);
-        memcpy(b, r->p, sizeof b);
-        n++;
-    }
-    return pk_isqrt64(best);
+    memcpy(m->line_p, p, sizeof m->line_p);
+    m->line_feed = feed;
+    m->line_sharp = sharp;
+    m->line_pending = true;
+    return flush_line(m);
 }
 
 /** Pull the open stroke into the motion queue while it has room.
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    while (pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0) {
+    while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0) {
         pk_um_t p[PK_AXES];
         int r = pk_stroke_pull(&m->stroke, p);
         if (r == PK_OK) {
-            (void)plan_line(m, p, m->stroke_feed);
+            (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
             continue;
         }
         if (r < 0) {
@@ -471,6 +579,13 @@ static bool drain_stroke(struct pk_machine *m)
     return true;
 }
 
+/* A request arrived: the stream is alive, the look-ahead waits for it. */
+static void input_seen(struct pk_machine *m)
+{
+    m->flush = false;
+    m->wait_since = 0;
+}
+
 static void take_requests(struct pk_machine *m)
 {
     for (uint32_t it = 0; it < POLL_BUDGET; it++) {
@@ -478,21 +593,23 @@ static void take_requests(struct pk_machine *m)
             return;
         if (m->inq_count == 0)
             return;
+        if (m->line_pending)
+            return;
         struct pk_req *r = req_at(m, 0);
+        input_seen(m);
         bool open = pk_stroke_is_open(&m->stroke);
         if (r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED) {
-            pk_um_s_t f = pk_um_min_to_um_s(r->arg);
-            if (open && (m->stroke.finishing || f != m->stroke_feed)) {
+            if (open && (m->stroke.finishing || r->arg != m->stroke_feed)) {
                 pk_stroke_finish(&m->stroke);
                 if (pk_mq_room(&m->mq) == 0)
                     return;
                 continue;
             }
             if (!open) {
-                m->stroke_feed = f;
-                (void)pk_stroke_begin(&m->stroke, m->target_um, d2_hint(m, r->arg));
+                m->stroke_feed = r->arg;
+                (void)pk_stroke_begin(&m->stroke, m->target_um);
             }
-            int ar = pk_stroke_add(&m->stroke, r->p);
+            int ar = pk_stroke_add(&m->stroke, r->p, r->chord_err_um);
             if (ar == PK_OK) {
                 req_pop(m);
                 continue;
@@ -515,23 +632,31 @@ static void take_requests(struct pk_machine *m)
             return;
         switch (r->type) {
         case PK_REQ_MOVE:
-            (void)plan_line(m, r->p, 0u);
+            (void)plan_line(m, r->p, 0u, true);
             break;
         case PK_REQ_PEN:
             (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, 0u, r->arg);
+            m->replan = true;
             break;
         case PK_REQ_DWELL:
             (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_DWELL, 0u, 0u, r->arg);
+            m->replan = true;
             break;
         case PK_REQ_SPINDLE:
             m->spindle_q16 = (uint16_t)r->arg;
-            if (r->kind)
+            if (r->kind) {
                 (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_SPINDLE, 0u,
                                           (uint16_t)r->arg, m->cfg.pen_settle_ms);
+                m->replan = true;
+            }
             break;
         case PK_REQ_SMOOTH:
             (void)pk_stroke_set(&m->stroke, &r->smooth);
             m->policy_applied = r->smooth;
+            break;
+        case PK_REQ_END:
+            m->flush = true; /* nothing follows: every stop planned is real */
+            m->replan = true;
             break;
         default:
             break;
@@ -540,25 +665,70 @@ static void take_requests(struct pk_machine *m)
     }
 }
 
+/* The look-ahead waits for moves it has not seen. If none comes while the
+ * machine has nothing to run (a sender that stopped mid-stroke, a lone line
+ * typed at a terminal), end the stroke there and run what is planned, after
+ * lookahead_wait_ms: the only place where arrival time changes the path, and
+ * only once the machine stands still for lack of input. */
+static void check_idle(struct pk_machine *m)
+{
+    bool waiting = m->inq_count == 0 && !m->flush && !m->line_pending
+                   && (pk_stroke_is_open(&m->stroke) || pk_mq_count(&m->mq) > 0)
+                   && !m->sg.busy && pk_sg_pending(&m->sg) == 0 && !m->hold_req;
+    if (!waiting) {
+        m->wait_since = 0;
+        return;
+    }
+    uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
+    if (m->wait_since == 0) {
+        m->wait_since = now ? now : 1u;
+        return;
+    }
+    uint32_t ms = m->cfg.lookahead_wait_ms ? m->cfg.lookahead_wait_ms : PK_LOOKAHEAD_WAIT_MS_DEFAULT;
+    if (now - m->wait_since < (uint64_t)ms * m->hal->tick_hz / 1000u)
+        return;
+    pk_stroke_finish(&m->stroke);
+    m->flush = true;
+    m->replan = true;
+    m->wait_since = 0;
+}
+
 void pk_machine_poll(struct pk_machine *m)
 {
     if (alarmed(m))
         return;
     take_requests(m);
-    /* A sender that stopped mid-stroke: nothing waiting, and the planned
-     * blocks are all handed to the step generator: finish the stroke so the
-     * kernel releases its tail instead of leaving it waiting forever. */
-    if (m->inq_count == 0 && pk_stroke_is_open(&m->stroke) && !m->stroke.finishing
-        && pk_mq_count(&m->mq) == 0) {
-        pk_stroke_finish(&m->stroke);
-        if (!drain_stroke(m))
-            return;
+    check_idle(m);
+    if (!drain_stroke(m))
+        return;
+    bool full = pk_mq_room(&m->mq) == 0;
+    if (full != m->was_full) {
+        m->was_full = full;
+        m->replan = true;
     }
-    pk_v2_q4_t v2;
-    uint32_t rem;
-    pk_sg_plan_state(&m->sg, &m->mq, &v2, &rem);
-    pk_planner_replan(&m->planner, &m->mq, v2, rem);
-    (void)pk_sg_prep(&m->sg, &m->mq);
+    if (m->replan) {
+        pk_v2_q4_t v2;
+        uint32_t rem;
+        pk_sg_plan_state(&m->sg, &m->mq, &v2, &rem);
+        pk_planner_replan(&m->planner, &m->mq, v2, rem, m->flush);
+        m->replan = false;
+    }
+    /* Which blocks may be cut into chunks: those whose plan is final; with a
+     * full queue all but the newest (the same blocks whatever the sender's
+     * timing, since a full queue holds the next PK_MQ_CAP blocks of the
+     * program); everything when the input is known to end here; during a
+     * hold everything (it decelerates regardless of the plan). */
+    uint32_t count = pk_mq_count(&m->mq);
+    uint32_t allowed = pk_planner_final(&m->planner);
+    if (full && allowed < count - 1u)
+        allowed = count - 1u;
+    if (m->hold_req)
+        allowed = count;
+    else if (allowed == 0 && count > 0 && m->sg.busy && pk_sg_pending(&m->sg) < 2u)
+        allowed = 1; /* starved while moving: run the stop-safe plan rather than underrun */
+    (void)pk_sg_prep(&m->sg, &m->mq, allowed);
+    uint32_t popped = count - pk_mq_count(&m->mq);
+    m->planner.n_final = (uint8_t)(m->planner.n_final > popped ? m->planner.n_final - popped : 0u);
     if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
         m->sg.restart = true;
         m->sg.busy = true;
@@ -589,6 +759,7 @@ void pk_machine_hold(struct pk_machine *m)
         return;
     m->hold_req = true;
     pk_sg_set_hold(&m->sg, true);
+    m->replan = true;
 }
 
 void pk_machine_resume(struct pk_machine *m)
@@ -597,34 +768,43 @@ void pk_machine_resume(struct pk_machine *m)
         return;
     m->hold_req = false;
     pk_sg_set_hold(&m->sg, false);
+    m->replan = true;
 }
 
 bool pk_machine_reset(struct pk_machine *m)
 {
     const struct pk_hal *h = m->hal;
-    if (h->ops->timer_stop)
-        (void)h->ops->timer_stop(h->ctx);
     /* Motion is cut (Grbl's ALARM 3) only if the axes may be moving: a
      * completed feed hold (HOLD: stopped, queue kept) or a machine that has
      * not started yet loses no position. */
     enum pk_machine_state st0 = pk_machine_state(m);
     bool interrupted = st0 == PK_STATE_HOLDING
                        || (st0 == PK_STATE_RUN && (m->sg.busy || pk_sg_pending(&m->sg) > 0));
-    /* leave every step line low (also after an alarm: a line whose lowering
-     * failed must not swallow the next edge). If that write fails the line
-     * may still be high, so the next rising edge the core counts might not
-     * be a pulse on the pin: stay in ALARM (after the flush, which clears
-     * alarms) until a reset whose write succeeds. */
-    int low_rc = pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
-    pk_sg_flush(&m->sg);
-    if (low_rc != 0)
-        m->sg.alarm = PK_ALARM_STEP_WRITE;
+    /* Stop the step timer, or, if a step pulse is high right now, let it end
+     * that pulse after its full width and stop then (a runt pulse may be
+     * missed by a driver while the core has counted the step: finding M2). */
+    if (pk_sg_kill(&m->sg, h) == 0) {
+        /* leave every step line low (also after an alarm: a line whose
+         * lowering failed must not swallow the next edge). If that write
+         * fails the line may still be high, so the next rising edge the core
+         * counts might not be a pulse on the pin: stay in ALARM (the kill
+         * flushed, which clears alarms) until a reset whose write succeeds. */
+        int low_rc = pk_hal_step_write(h, (1u << m->cfg.axes) - 1u, 0u);
+        if (low_rc != 0)
+            m->sg.alarm = PK_ALARM_STEP_WRITE;
+    }
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
+    m->planner.n_final = 0;
     pk_stroke_reset(&m->stroke);
     m->inq_count = 0;
     m->inq_head = 0;
     m->hold_req = false;
+    m->line_pending = false;
+    m->flush = false;
+    m->replan = false;
+    m->was_full = false;
+    m->wait_since = 0;
     m->acc_n = 0;
     m->acc_policy = m->policy_applied;
     for (uint32_t i = 0; i < axes_of(m); i++) {
@@ -632,6 +812,14 @@ bool pk_machine_reset(struct pk_machine *m)
         m->target_um[i] = pk_steps_to_um(m->sg.pos[i], m->cfg.steps_per_mm_q16[i]);
     }
     return interrupted;
+}
+
+void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *ctx)
+{
+    m->observe = fn;
+    m->observe_ctx = ctx;
+    m->stroke.observe = fn;
+    m->stroke.observe_ctx = ctx;
 }
 
 /* ----------------------------------------------------------- queries */

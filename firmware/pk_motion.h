@@ -174,8 +174,22 @@ struct pk_machine {
     struct pk_planner planner;           /**< look-ahead (MAIN) */
     struct pk_stepgen sg;                /**< chunk prep (MAIN) + pulse emission (ISR) */
     pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
-    pk_um_t target_um[PK_AXES];          /**< last requested position, µm (MAIN) */
-    pk_um_s_t stroke_feed;               /**< feed of the open stroke, µm/s (MAIN) */
+    pk_um_t target_um[PK_AXES];          /**< exact position the plan has reached, µm:
+                                              where the next block starts (MAIN) */
+    pk_um_min_t stroke_feed;             /**< feed of the open stroke, µm/min (MAIN) */
+    bool line_pending;                   /**< a straight move is being planned in pieces */
+    pk_um_t line_p[PK_AXES];             /**< its end (MAIN) */
+    pk_um_min_t line_feed;
+    bool line_sharp;                     /**< its end is a corner */
+    bool junction_sharp;                 /**< the junction at target_um is a programmed corner */
+    bool replan;                         /**< the plan must be recomputed (MAIN) */
+    bool flush;                          /**< nothing follows what is queued (end of
+                                              program, or the look-ahead waited
+                                              lookahead_wait_ms for input) */
+    bool was_full;                       /**< the queue was full at the last replan */
+    uint64_t wait_since;                 /**< tick since which input is awaited (0: not) */
+    pk_stroke_observer observe;          /**< see pk_machine_set_observer */
+    void *observe_ctx;
     uint32_t lines_planned;              /**< line blocks planned since init (MAIN) */
     bool hold_req;                       /**< feed hold requested (MAIN) */
     uint16_t spindle_q16;                /**< spindle value for the next line blocks (MAIN) */
@@ -365,6 +379,14 @@ void pk_machine_resume(struct pk_machine *m);
  * Calling context: MAIN.
  */
 bool pk_machine_reset(struct pk_machine *m);
+
+/**
+ * Observe what the smoothing hands to the refinement kernel (strokes begin,
+ * control points, end), e.g. to draw or measure the smoothed curve in the
+ * simulator. fn is called from pk_machine_poll (MAIN) and must not call back
+ * into the machine; NULL turns it off. Takes effect for the next stroke.
+ */
+void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *ctx);
 
 /** Position in steps actually emitted (consistent snapshot). MAIN. */
 void pk_machine_position_steps(const struct pk_machine *m, pk_steps_t out[PK_AXES]);

@@ -29,25 +29,34 @@ enum pk_block_type {
     PK_BLK_SPINDLE = 3 /**< set the spindle output (wait_ms after), stop point */
 };
 
-/** One planned block. Geometry is fixed at push; the planner owns v2_entry/v2_exit. */
+/** One planned block. Geometry is fixed at push; the planner owns the speeds. */
 struct pk_block {
     uint8_t type;              /**< enum pk_block_type */
     uint8_t dir_mask;          /**< LINE: logical direction per axis, 1 = positive */
     uint8_t tool;              /**< PEN: logical tool level */
     uint8_t rapid;             /**< LINE: a rapid (rapid override applies, not feed) */
     uint16_t spindle;          /**< LINE: spindle value while it runs; SPINDLE: the value */
-    uint32_t steps[PK_AXES];   /**< LINE: |steps| per axis */
-    uint32_t events;           /**< LINE: max(steps) (Bresenham events, >= 1) */
-    uint32_t len_q8;           /**< LINE: path length, µm Q8 (< 2^31) */
-    pk_q30_t u[PK_AXES];       /**< LINE: unit direction, Q1.30 */
+    uint8_t end_limited;       /**< LINE: planner-private: the exit is limited by the
+                                    queue's end (may rise when blocks are appended) */
+    uint8_t curved;            /**< LINE: next to a curved junction (acceleration along
+                                    the path shared with the turn) */
+    uint32_t events;           /**< LINE: Bresenham events M = max |steps| (>= 1) */
+    uint32_t period;           /**< LINE: Bresenham period, 256 * M */
+    uint32_t inc[PK_AXES];     /**< LINE: per event each axis's accumulator grows by
+                                    its exact displacement in 1/256 steps ... */
+    int32_t acc0[PK_AXES];     /**< ... from this start value, which encodes the exact
+                                    fractional start position (pk_motion.c): the axis
+                                    steps when its accumulator reaches 0, then drops
+                                    by `period` */
+    uint32_t len_q8;           /**< LINE: path length of the steps, µm Q8 (< 2^31) */
     pk_um_s2_t accel;          /**< LINE: accel along the move, axis-limited, µm/s^2 */
-    pk_v2_q4_t v2_nom;         /**< LINE: nominal speed^2 (feed x override, axis-limited) */
-    pk_um_s_t v_req;           /**< LINE: requested speed before override (0 = max) */
-    pk_um_s_t v_lim;           /**< LINE: the axes' limit along the move */
+    pk_um_min_t v_req;         /**< LINE: requested speed before override, µm/min (0: rapid) */
+    pk_um_min_t v_lim;         /**< LINE: the axes' limit along the move, µm/min */
+    pk_v2_q4_t v2_nom;         /**< LINE: nominal speed^2 (override applied at replan) */
     pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 from the junction geometry
                                     (the replan also caps it by both nominals) */
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
-    uint32_t wait_ms;          /**< PEN/DWELL: wait */
+    uint32_t wait_ms;          /**< PEN/DWELL/SPINDLE: wait */
 };
 
 /** The ring (MAIN only). */

@@ -1,8 +1,8 @@
 /*
- * pk_planner.c — look-ahead planner (see pk_planner.h for the contract).
+ * pk_planner.c — look-ahead planner (contract in pk_planner.h).
  *
- * Why this shape (after Grbl's planner.c):
- *
+ * Why this shape
+ * --------------
  *   speed^2
  *     ^        ____                 ____
  *     |       /    \   junction    /    \
@@ -13,21 +13,68 @@
  *
  * With constant acceleration, speed^2 is linear in distance (v^2 = v0^2 +
  * 2*a*s), so every limit is a straight line in this picture and the planner
- * works on squared speeds only (no square root while planning). Each block has
- * a ceiling (its nominal speed), an entry ceiling (the junction limit), and
- * the reverse pass pulls exit speeds down so each block can decelerate to the
- * next one's entry; the forward pass caps them by what acceleration from the
- * current speed can reach. Blocks are few (PK_MQ_CAP), so both passes simply
- * run over the whole queue each time a block is added.
+ * works on squared speeds only (no square root while planning), as Grbl's
+ * planner.c does. Each block has a ceiling (its nominal speed), an entry
+ * ceiling, and the reverse pass pulls exit speeds down so each block can
+ * decelerate to the next one's entry; the forward pass caps them by what
+ * acceleration from the current speed can reach.
+ *
+ * Planned in steps. A block's length (its time) and its axis limits are
+ * those of the steps it makes (Grbl does the same), not of the requested
+ * micrometres: a move
+ * shorter than a step adds no block and its distance is not lost, so the
+ * next block never carries more steps than its time allows (finding M3: at
+ * coarse steps/mm the old planner gave a block the time of its micrometres
+ * and the steps of everything skipped before it). Only the junction and
+ * curvature limits use the requested direction: the direction of a few whole
+ * steps is noise (a 78 µm chord at 80 steps/mm is 6 steps: up to 0.16 rad
+ * off), which would slow a smooth curve to a crawl; the step generator keeps
+ * every axis within half a step of the requested segment anyway.
+ *
+ * Entry ceilings. At a vertex the velocity turns from v u1 to v u2. Grbl's
+ * junction deviation allows the jump a circle of radius r, deviating by
+ * delta from the corner, would take at acceleration a ($11). That is right
+ * for a real corner but says nothing about a finely subdivided curve: there
+ * every vertex turns a little, the jumps add up to a centripetal
+ * acceleration v^2 kappa, and with kappa from the chords (turn / length) the
+ * junction formula allows far more (the smoothed 40-gon ran at ~1,930 mm/s^2
+ * against 1,000). So every junction is also capped by the curvature limit:
+ * the axis velocities change by v |u2[i] - u1[i]| over the time the machine
+ * takes from the middle of one block to the middle of the next,
+ * (l1 + l2) / (2 v), so
+ *
+ *     v^2 <= accel[i] * (l1 + l2) / 2 / |u2[i] - u1[i]|     for every axis i,
+ *
+ * which is v^2 <= a / kappa on a polygon that follows a curve (kappa = the
+ * turn over the chord). The sideways budget is isotropic, a share of the
+ * smallest axis acceleration (PK_PLANNER_SIDE_Q15), and the blocks on either
+ * side of a junction where it can bind accelerate along the path with the
+ * complementary share (PK_PLANNER_ALONG_Q15) only: per axis a_t u_i + a_n
+ * n_i, u and n orthogonal, stays within sqrt(a_t^2 + a_n^2) <= accel_min. Grbl's junction
+ * deviation applies at programmed corners (it is Grbl's model: a velocity
+ * jump of at most sqrt(8 a delta)); at vertices of a smoothed curve the jump
+ * itself is capped (PK_PLANNER_KINK_MS) so that, over any such window, it
+ * leaves room for the acceleration along the path: long chords cannot turn a
+ * curve into a string of kicks the curvature formula would allow.
+ *
+ * Final plans. Appending a block can only raise exits that are limited by
+ * the newest block's stop; an exit capped by a junction, a nominal speed or
+ * the acceleration from the past can never change. The reverse pass marks
+ * which exits depend on the queue's end; the forward pass counts the blocks
+ * from the tail whose exits are final. The step generator cuts only those
+ * into chunks (or all of them when the queue is full or the program's end is
+ * known), so a program read from a file and the same program streamed line by
+ * line give the same pin trace as long as the sender keeps the queue fed.
  *
  * Fixed-point budget: len_q8 < 2^31 (|d| <= 2*PK_UM_MAX per axis, 3 axes:
  * sqrt(3) * 2^22 µm * 2^8 < 2^31), accel < 2^27, so 2*a*len in Q4 is
- * 2 * a * len_q8 / 16 < 2^55. Speeds^2 Q4 < 2^44.
+ * 2 * a * len_q8 / 16 < 2^55. Speeds^2 Q4 < 2^44 (1 m/s).
  */
 #include <string.h>
 #include "pk_planner.h"
 
-static pk_v2_q4_t v2_of(pk_um_s_t v) { return ((pk_v2_q4_t)v * v) << PK_V2_Q4_SHIFT; }
+/** Speed^2 Q4 from µm/min: (v / 60)^2 * 16 = v^2 / 225 (v < 2^26). */
+static pk_v2_q4_t v2_of_um_min(uint64_t v) { return (v * v + 112u) / 225u; }
 
 /** 2 * a * len in Q4 speed^2 (len in µm Q8). */
 static pk_v2_q4_t two_a_s(pk_um_s2_t a, uint32_t len_q8)
@@ -45,31 +92,23 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim)
     p->ovr_rapid_pct = 100u;
 }
 
-/* Nominal speed^2 of a line block under the overrides in force. */
-static pk_v2_q4_t nominal_v2(const struct pk_planner *p, const struct pk_block *b)
+void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
+
+pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b)
 {
     uint64_t v = b->rapid ? (uint64_t)b->v_lim * p->ovr_rapid_pct / 100u
                           : (uint64_t)b->v_req * p->ovr_feed_pct / 100u;
     if (v > b->v_lim)
         v = b->v_lim;
-    if (v == 0)
-        v = 1;
-    return v2_of((pk_um_s_t)v);
+    pk_v2_q4_t v2 = v2_of_um_min(v);
+    return v2 == 0 ? 1u : v2;
 }
 
-void pk_planner_set_override(struct pk_planner *p, struct pk_mq *q, uint16_t feed_pct,
-                             uint16_t rapid_pct)
+void pk_planner_set_override(struct pk_planner *p, uint16_t feed_pct, uint16_t rapid_pct)
 {
     p->ovr_feed_pct = feed_pct;
     p->ovr_rapid_pct = rapid_pct;
-    for (uint32_t k = 0; k < pk_mq_count(q); k++) {
-        struct pk_block *b = pk_mq_at(q, k);
-        if (b->type == PK_BLK_LINE)
-            b->v2_nom = nominal_v2(p, b);
-    }
 }
-
-void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
 
 pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta)
@@ -104,15 +143,63 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
     return (ad * q) >> 16;
 }
 
-int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_um[PK_AXES],
-                        const pk_steps_t d_steps[PK_AXES], pk_um_s_t feed)
+pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                                   uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a)
+{
+    /* v^2 (Q4) = a * (l1 + l2)/2 / |du|: with l in µm Q8 and du in Q30,
+     * v^2 = a * lsum_q8 / 512 * 2^30 / du  ->  Q4: a * lsum_q8 * 2^25 / du. */
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];   /* |d| <= 2^31 */
+        ss += (uint64_t)(d * d) >> 4;         /* Q56, < 3 * 2^58 */
+    }
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2; /* |u2 - u1|, Q30 */
+    if (du == 0)
+        return UINT64_MAX;
+    /* the kink is spread over the shorter neighbour (twice its half): with
+     * equal chords this is their mean, the turn over the chord of a curve;
+     * next to a long segment the short one rules, so a long straight and a
+     * blend's chord cannot hide a large kink behind the long one */
+    uint64_t lmin = l1_q8 < l2_q8 ? l1_q8 : l2_q8;
+    uint64_t num = (uint64_t)a * (2u * lmin);               /* < 2^27 * 2^32 */
+    uint64_t qt = num / du;
+    return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
+}
+
+void pk_planner_dyn(const struct pk_planner_limits *lim, struct pk_planner_dyn *d)
+{
+    d->a_min = lim->accel_min;
+    d->a_side = (pk_um_s2_t)(((uint64_t)lim->accel_min * PK_PLANNER_SIDE_Q15) >> 15);
+    pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)lim->accel_min * PK_PLANNER_ALONG_Q15) >> 15);
+    d->jump_um_s = (uint32_t)(((uint64_t)(lim->accel_min - along) * PK_PLANNER_KINK_MS) / 1000u);
+    d->delta_um = lim->junction_dev_um;
+}
+
+pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                              uint8_t axes, uint32_t jump_um_s)
+{
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];
+        ss += (uint64_t)(d * d) >> 4;
+    }
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;   /* |u2 - u1|, Q30 */
+    if (du == 0)
+        return UINT64_MAX;
+    uint64_t v_q2 = ((uint64_t)jump_um_s << 32) / du; /* jump / du, µm/s x 4 */
+    return v_q2 * v_q2;                            /* (µm/s)^2 x 16 = Q4 */
+}
+
+int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
+                        const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
+                        pk_um_min_t feed, uint8_t flags)
 {
     const uint8_t axes = p->lim.axes;
     uint64_t ss = 0;
     uint32_t events = 0;
     for (unsigned i = 0; i < axes; i++) {
-        int64_t d = d_um[i];
-        ss += (uint64_t)(d * d);
+        int64_t d = d_q8[i];
+        ss += (uint64_t)(d * d);       /* |d_q8| < 2^30: 3 * 2^60 < 2^62 */
         uint32_t st = (uint32_t)(d_steps[i] < 0 ? -d_steps[i] : d_steps[i]);
         if (st > events)
             events = st;
@@ -121,50 +208,96 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_u
         return 0;
     if (pk_mq_room(q) == 0)
         return -1;
-    uint32_t len_q8 = pk_isqrt64(ss << 16);   /* ss < 3 * 2^44: << 16 < 2^62 */
+    uint32_t len_q8 = pk_isqrt64(ss);
     if (len_q8 == 0)
         len_q8 = 1;
     struct pk_block *b = pk_mq_push(q);
     b->type = PK_BLK_LINE;
     b->events = events;
     b->len_q8 = len_q8;
-    uint64_t v_nom = PK_UM_S_MAX;
+    uint64_t v_lim = PK_UM_MIN_MAX;
     uint64_t acc = PK_UM_S2_MAX;
+    /* the direction and length of the steps, for the junction and curvature */
+    (void)d_um;
+    pk_q30_t u[PK_AXES] = { 0 };
+    uint32_t ulen_q8 = len_q8;
     for (unsigned i = 0; i < axes; i++) {
-        int64_t d = d_um[i];
-        b->steps[i] = (uint32_t)(d_steps[i] < 0 ? -d_steps[i] : d_steps[i]);
-        if (d_steps[i] > 0 || (d_steps[i] == 0 && d > 0))
+        int64_t du = d_q8[i];
+        uint64_t adu = (uint64_t)(du < 0 ? -du : du);
+        u[i] = (pk_q30_t)((du < 0 ? -1 : 1) * (int64_t)((adu << 30) / ulen_q8)); /* < 2^61 */
+    }
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = d_q8[i];
+        if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
-        b->u[i] = (pk_q30_t)(((d < 0 ? -1 : 1) * (int64_t)(((uint64_t)(d < 0 ? -d : d) << 38) / len_q8)));
-        if (d == 0)
+        uint64_t ad = (uint64_t)(d < 0 ? -d : d);
+        if (ad == 0)
             continue;
-        uint64_t ad = (uint64_t)(d < 0 ? -d : d) << 8; /* |d| Q8 */
         /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d| */
         uint64_t vl = (uint64_t)p->lim.max_rate[i] * len_q8 / ad;
         uint64_t al = (uint64_t)p->lim.accel[i] * len_q8 / ad;
-        if (vl < v_nom)
-            v_nom = vl;
+        if (vl < v_lim)
+            v_lim = vl;
         if (al < acc)
             acc = al;
     }
-    if (v_nom == 0)
-        v_nom = 1;
+    if (v_lim == 0)
+        v_lim = 1;
     if (acc == 0)
         acc = 1;
     b->accel = (pk_um_s2_t)acc;
     b->rapid = feed == 0u;
-    b->v_lim = (pk_um_s_t)v_nom;
+    b->v_lim = (pk_um_min_t)v_lim;
     b->v_req = feed;
-    b->v2_nom = nominal_v2(p, b);
+    b->v2_nom = pk_planner_nominal_v2(p, b);
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
-        pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
-        vj = pk_planner_junction_v2(p->prev_u, b->u, axes, a, p->lim.junction_dev_um);
+        struct pk_planner_dyn dyn;
+        pk_planner_dyn(&p->lim, &dyn);
+        const pk_um_s2_t side = dyn.a_side;
+        const pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)p->lim.accel_min * PK_PLANNER_ALONG_Q15) >> 15);
+        pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
+        pk_v2_q4_t turn; /* the cap that comes from turning sideways */
+        if (flags & PK_PLAN_SHARP) {
+            pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
+            pk_v2_q4_t grbl = pk_planner_junction_v2(p->prev_u, u, axes, a, p->lim.junction_dev_um);
+            vj = min64(grbl, curv);
+            turn = curv < grbl ? curv : UINT64_MAX; /* Grbl's corner model rules */
+        } else {
+            vj = min64(curv, pk_planner_kink_v2(p->prev_u, u, axes, dyn.jump_um_s));
+            turn = vj;
+        }
+        /* a turn that can limit the speed shares the acceleration with the
+         * blocks on either side of it */
+        struct pk_block *a0 = pk_mq_count(q) >= 2 ? pk_mq_at(q, pk_mq_count(q) - 2u) : NULL;
+        pk_v2_q4_t nom = b->v2_nom;
+        if (a0 != NULL && a0->type == PK_BLK_LINE && a0->v2_nom > nom)
+            nom = a0->v2_nom;
+        if (turn < nom) {
+            /* the turn is spread over the shorter neighbour: that block shares
+             * its acceleration with it (on the longer one the two come one
+             * after the other, so any window of time averages them) */
+            bool b_short = ulen_q8 <= p->prev_len_q8;
+            if (b_short) {
+                b->curved = 1;
+                if (b->accel > along)
+                    b->accel = along;
+            } else if (a0 != NULL && a0->type == PK_BLK_LINE && !(flags & PK_PLAN_PREV_LOCKED)) {
+                a0->curved = 1;
+                if (a0->accel > along)
+                    a0->accel = along;
+            } else {
+                b->curved = 1; /* the shorter one is running already: this one shares */
+                if (b->accel > along)
+                    b->accel = along;
+            }
+        }
     }
     b->v2_junction = vj;
     b->v2_exit = 0;
     p->have_prev = true;
-    memcpy(p->prev_u, b->u, sizeof p->prev_u);
+    memcpy(p->prev_u, u, sizeof p->prev_u);
+    p->prev_len_q8 = ulen_q8;
     p->prev_accel = b->accel;
     return 1;
 }
@@ -194,34 +327,58 @@ static pk_v2_q4_t entry_ceiling(struct pk_mq *q, uint32_t k)
     return c;
 }
 
-void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8)
+void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8,
+                       bool end_known)
 {
-    (void)p;
     uint32_t n = pk_mq_count(q);
+    p->n_final = 0;
     if (n == 0)
         return;
+    for (uint32_t k = 0; k < n; k++) {
+        struct pk_block *b = pk_mq_at(q, k);
+        if (b->type == PK_BLK_LINE)
+            b->v2_nom = pk_planner_nominal_v2(p, b);
+    }
     /* Reverse pass: the newest block ends at rest. next_entry = entry ceiling
-     * of block i+1 as far as stopping allows. */
+     * of block k+1 as far as stopping allows; limited = it depends on the
+     * queue's end (it was not capped by anything that stays). */
     pk_v2_q4_t next_entry = 0;
+    bool limited = !end_known;
     for (uint32_t k = n; k-- > 0;) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type != PK_BLK_LINE) {
             b->v2_exit = 0;
             next_entry = 0;
+            limited = false;
             continue;
         }
         b->v2_exit = next_entry;
+        b->end_limited = limited;
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
         pk_v2_q4_t entry = b->v2_exit + two_a_s(b->accel, len);
         pk_v2_q4_t ceil = (k == 0) ? v2_now : entry_ceiling(q, k);
-        next_entry = min64(entry, ceil);
+        if (ceil <= entry) {
+            next_entry = ceil;
+            limited = false;
+        } else {
+            next_entry = entry;
+        }
+        /* the newest block's own acceleration is not settled until the next
+         * junction is known (a curve after it takes its share): what
+         * it allows is not final either */
+        if (k == n - 1u && !end_known)
+            limited = true;
     }
     /* Forward pass: from the current speed, acceleration caps each exit. */
     pk_v2_q4_t entry = v2_now;
+    bool prefix = true;
+    uint32_t fin = 0;
     for (uint32_t k = 0; k < n; k++) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type != PK_BLK_LINE) {
             entry = 0;
+            if (prefix)
+                fin++;
             continue;
         }
         if (k > 0 && entry > entry_ceiling(q, k))
@@ -231,5 +388,15 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         pk_v2_q4_t ex = min64(b->v2_exit, min64(reach, b->v2_nom));
         b->v2_exit = ex;
         entry = ex;
+        /* (an exit capped here by the acceleration from the past is not final
+         * if it is end-limited: the newest block's acceleration can still drop
+         * when a curve follows it, lowering the reverse limit below this cap) */
+        if (prefix && !b->end_limited)
+            fin++;
+        else
+            prefix = false;
     }
+    p->n_final = (uint8_t)(fin > 255u ? 255u : fin);
 }
+
+uint32_t pk_planner_final(const struct pk_planner *p) { return p->n_final; }

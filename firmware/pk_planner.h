@@ -1,25 +1,22 @@
 /*
- * pk_planner.h — look-ahead planner over the motion queue (Grbl-style).
+ * pk_planner.h — look-ahead planner over the motion queue (contract; the
+ * "why" is at the top of pk_planner.c).
  *
- * For each new straight move the planner computes its geometry (length, unit
- * vector, axis-limited speed and acceleration) and the highest speed at which
- * it may be entered from the previous move (junction deviation):
- *
- *     v_j^2 = a * delta * sin(theta/2) / (1 - sin(theta/2))
- *
- * theta being the angle between the reversed previous direction and the new
- * one (theta = 180 deg for a straight continuation: no limit; theta -> 0 for a
- * reversal: v_j -> 0), a = min(accel of the two moves). Then a reverse pass
- * (newest to oldest, starting from exit speed 0 for the newest move, so the
- * machine can always stop within the queue) and a forward pass (from the speed
- * the step generator has reached now) set every block's exit speed. The speed
- * profile inside a block is a trapezoid (accelerate, cruise, decelerate) that
- * the step generator derives from entry, nominal and exit speed.
+ * For each new straight move the planner computes its geometry from the
+ * steps it will really make (length, unit vector, axis-limited speed and
+ * acceleration) and the highest speed at which it may be entered from the
+ * previous move: the smaller of Grbl's junction deviation and the speed at
+ * which the change of direction is within every axis's acceleration over the
+ * two moves (the curvature limit of the path the polygon approximates). A
+ * reverse pass (the newest move ends at rest, so the machine can always stop
+ * within the queue) and a forward pass (from the speed the step generator has
+ * reached) set every block's exit speed, and say how many blocks from the
+ * oldest have a FINAL plan: one that no later block can change. The step
+ * generator only cuts final blocks into chunks (pk_motion.c), which makes the
+ * motion a function of the program, not of when its lines arrived.
  *
  * All arithmetic is integer: speeds squared in pk_v2_q4_t, lengths in µm Q8,
- * unit vectors Q1.30, square roots by pk_isqrt64.
- *
- * Calling context: MAIN only.
+ * unit vectors Q1.30, square roots by pk_isqrt64. Calling context: MAIN only.
  */
 #ifndef PLOTKIN_PK_PLANNER_H
 #define PLOTKIN_PK_PLANNER_H
@@ -31,7 +28,8 @@
 /** Limits the planner needs (copied from struct pk_motion_cfg at init). */
 struct pk_planner_limits {
     uint8_t axes;
-    pk_um_s_t max_rate[PK_AXES];   /**< µm/s per axis */
+    pk_um_s2_t accel_min;          /**< smallest of accel[] (the curve budget is isotropic) */
+    pk_um_min_t max_rate[PK_AXES]; /**< µm/min per axis */
     pk_um_s2_t accel[PK_AXES];     /**< µm/s^2 per axis */
     pk_um_t junction_dev_um;       /**< Grbl $11 */
 };
@@ -41,7 +39,9 @@ struct pk_planner {
     uint16_t ovr_feed_pct, ovr_rapid_pct; /**< overrides (100 = none) */
     bool have_prev;               /**< the newest queued block is a LINE to join */
     pk_q30_t prev_u[PK_AXES];     /**< its unit vector */
+    uint32_t prev_len_q8;         /**< its requested length */
     pk_um_s2_t prev_accel;
+    uint8_t n_final;              /**< blocks from the tail with a final plan (last replan) */
 };
 
 /** Initialise with limits (copied). */
@@ -50,26 +50,65 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim);
 /** Forget the previous move: the next line starts from a stop. */
 void pk_planner_break(struct pk_planner *p);
 
+/** Shares of the acceleration, Q1.15: a curve may use SIDE of the smallest
+ *  axis acceleration sideways (centripetal), and the blocks next to a curved
+ *  junction ALONG of it along the path; SIDE^2 + ALONG^2 <= 1, so that the two
+ *  together never exceed it on any axis (|a_t u_i + a_n n_i| <=
+ *  sqrt(a_t^2 + a_n^2), u and n orthogonal). */
+#ifndef PK_PLANNER_SIDE_Q15
+#define PK_PLANNER_SIDE_Q15 23170u   /* 1/sqrt(2) */
+#endif
+#ifndef PK_PLANNER_ALONG_Q15
+#define PK_PLANNER_ALONG_Q15 23170u  /* 1/sqrt(2) */
+#endif
+#if (PK_PLANNER_SIDE_Q15 * PK_PLANNER_SIDE_Q15 + PK_PLANNER_ALONG_Q15 * PK_PLANNER_ALONG_Q15) > (1u << 30)
+#error "PK_PLANNER_SIDE_Q15^2 + PK_PLANNER_ALONG_Q15^2 must not exceed 1"
+#endif
+/** A vertex of a smoothed curve is a velocity jump v |u2 - u1|; measured
+ *  over any window of PK_PLANNER_KINK_MS it must leave room for the
+ *  acceleration along the path: the jump is capped at (1 - ALONG) *
+ *  accel_min * PK_PLANNER_KINK_MS (about Grbl's sqrt(8 a delta) at delta =
+ *  0.01 mm). The trace checks measure accelerations over such windows. */
+#ifndef PK_PLANNER_KINK_MS
+#define PK_PLANNER_KINK_MS 40u
+#endif
+
+/** Largest |steps| of one line block (longer moves are split by the caller):
+ *  keeps the step generator's Bresenham terms (256 x steps) within 2^30. */
+#define PK_PLANNER_MAX_STEPS ((uint32_t)1 << 21)
+
 /**
  * Append a straight move to q.
- * @param d_um     displacement in µm (requested geometry; axes >= lim.axes ignored)
- * @param d_steps  displacement in steps (difference of rounded absolute positions)
- * @param feed     requested speed µm/s (0 = as fast as the axes allow: a rapid,
- *                 scaled by the rapid override; otherwise by the feed override)
- * @retval 1  a block was appended
- * @retval 0  the move has no steps (nothing appended; the geometry still counts
- *            as "previous" only if it had length)
+ * @param d_q8     the displacement the steps make, µm Q8 (d_steps[i] * 1000 /
+ *                 steps_per_mm[i]): the geometry is planned in steps, so the
+ *                 time given to a block is the time its steps need
+ * @param d_steps  displacement in steps (|d_steps[i]| <= PK_PLANNER_MAX_STEPS)
+ * @param d_um     the exact displacement requested, µm (|d_um[i]| < 2^23): the
+ *                 direction the junction and curvature limits use (the
+ *                 direction of a few whole steps is too coarse for them: a
+ *                 78 µm chord at 80 steps/mm is 6 steps, its direction off by
+ *                 up to 0.16 rad)
+ * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
+ *                 allow, scaled by the rapid override; else the feed override
+ *                 applies)
+ * @param flags    PK_PLAN_* bits
+ * @retval 1  a block was appended (the newest in q; the caller fills in its
+ *            Bresenham terms, pk_mq.h)
+ * @retval 0  the move has no steps (nothing appended)
  * @retval -1 q is full (nothing changed)
  * The caller replans (pk_planner_replan) after appending.
  */
-int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_um[PK_AXES],
-                        const pk_steps_t d_steps[PK_AXES], pk_um_s_t feed);
-
-/** Set the overrides (feed 10..200 %, rapid 1..100 %, validated by the caller)
- *  and recompute the nominal speed of every queued line block; the caller
- *  replans. */
-void pk_planner_set_override(struct pk_planner *p, struct pk_mq *q, uint16_t feed_pct,
-                             uint16_t rapid_pct);
+int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
+                        const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
+                        pk_um_min_t feed, uint8_t flags);
+/** pk_planner_add_line flags. */
+enum {
+    PK_PLAN_SHARP = 1,      /**< the junction with the previous move is a programmed
+                                 corner (Grbl's junction deviation applies); else it is
+                                 a vertex of a smoothed curve (velocity jump capped) */
+    PK_PLAN_PREV_LOCKED = 2 /**< the previous block is being cut into chunks: its
+                                 acceleration can no longer be changed */
+};
 
 /** Append a stop block (PK_BLK_PEN with tool level, PK_BLK_SPINDLE with value
  *  in `value`, or PK_BLK_DWELL) of wait_ms.
@@ -77,21 +116,59 @@ void pk_planner_set_override(struct pk_planner *p, struct pk_mq *q, uint16_t fee
 int pk_planner_add_stop(struct pk_planner *p, struct pk_mq *q, uint8_t type, uint8_t tool,
                         uint16_t value, uint32_t wait_ms);
 
+/** Set the overrides (feed 10..200 %, rapid 1..100 %, validated by the caller);
+ *  queued blocks take them at the next replan. */
+void pk_planner_set_override(struct pk_planner *p, uint16_t feed_pct, uint16_t rapid_pct);
+
 /**
  * Reverse + forward pass over every queued block.
  * @param v2_now     speed^2 at which the tail block is (or will be) entered from
  *                   where the step generator is now
  * @param rem_q8     remaining length of the tail block (its full length when
  *                   not started)
+ * @param end_known  true if nothing will be appended behind the newest block
+ *                   before it has run (end of program, a flushed stroke, a
+ *                   full queue): its stop is then real, not a look-ahead limit
  * Postcondition: the newest block has v2_exit = 0; every block's exit speed is
- * reachable from its entry within its length and lets every later block stop.
+ * reachable from its entry within its length and lets every later block stop;
+ * pk_planner_final() blocks from the tail have exits no later block can change.
  */
-void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8);
+void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8,
+                       bool end_known);
+
+/** Blocks from the tail whose plan is final (as of the last replan). */
+uint32_t pk_planner_final(const struct pk_planner *p);
+
+/** The kink cap (Q4): v^2 such that the velocity jump v |u2 - u1| is at most
+ *  jump_um_s. UINT64_MAX for no turn. */
+pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                              uint8_t axes, uint32_t jump_um_s);
+
+/** The shares and caps the planner applies at a junction, for a policy that
+ *  wants to compare a kink with a blend (pk_stroke.c). */
+struct pk_planner_dyn {
+    pk_um_s2_t a_min;      /**< smallest axis acceleration */
+    pk_um_s2_t a_side;     /**< the sideways share of it (curvature) */
+    uint32_t jump_um_s;    /**< the kink cap at vertices of smoothed curves */
+    pk_um_t delta_um;      /**< Grbl's junction deviation at programmed corners */
+};
+void pk_planner_dyn(const struct pk_planner_limits *lim, struct pk_planner_dyn *d);
+
+/** Nominal speed^2 of a line block under the overrides in force. */
+pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b);
 
 /** The junction speed^2 limit (Q4) between unit vectors u1 (previous) and u2
- *  (next) for acceleration a and deviation delta (the formula above);
+ *  (next) for acceleration a and deviation delta (Grbl's formula);
  *  UINT64_MAX when unlimited (straight continuation). Exposed for tests. */
 pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta);
+
+/** The curvature limit (Q4): the largest v^2 such that turning from u1 to u2
+ *  over the shorter of two moves of lengths l1, l2 (µm Q8) needs at most the
+ *  acceleration a sideways: v^2 <= a min(l1, l2) / |u2 - u1| (a polygon with
+ *  chords l on a curve of radius r turns by l / r: v^2 <= a r). UINT64_MAX
+ *  for no turn. Exposed for tests. */
+pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                                   uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a);
 
 #endif

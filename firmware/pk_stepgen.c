@@ -138,6 +138,8 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
     sg->chunk_ticks_max = tick_hz / 500u; /* 2 ms */
+    if (sg->chunk_ticks_max > PK_SG_CHUNK_TICKS_MAX)
+        sg->chunk_ticks_max = PK_SG_CHUNK_TICKS_MAX;
     if (sg->chunk_ticks_max == 0)
         sg->chunk_ticks_max = 1;
     sg->head = 0u;
@@ -188,10 +190,15 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
         *rem_q8 = b->len_q8 - (sg->prep_active ? sg->s_q8 : 0u);
 }
 
-/* Fit I, A, B to first interval e1, last en and total S over n events. */
-static void fit(struct pk_sg_chunk *c, uint32_t n, int64_t e1, int64_t en, int64_t S)
+/* Fit I, A, B to first interval e1, last en and total S over n events
+ * (ticks Q16; every interval of a chunk of two or more events is below
+ * PK_SG_CHUNK_TICKS_MAX ticks, so all three fit 32 bits). */
+struct fit3 { int64_t c0, c1, c2; };
+
+static void fit(struct fit3 *c, uint32_t n, int64_t e1, int64_t en, int64_t S)
 {
     int64_t N = n;
+    c->c0 = c->c1 = c->c2 = 0;
     if (e1 < 1)
         e1 = 1;
     if (n == 1) {
@@ -223,15 +230,26 @@ static void fit(struct pk_sg_chunk *c, uint32_t n, int64_t e1, int64_t en, int64
     }
 }
 
-static int64_t fit_sum(const struct pk_sg_chunk *c)
+static int64_t fit_sum(const struct fit3 *c, uint32_t n)
 {
-    int64_t N = c->n;
+    int64_t N = n;
     return N * c->c0 + c->c1 * (N * (N - 1) / 2) + c->c2 * (N * (N - 1) * (N - 2) / 6);
 }
 
 /* Cut the next chunk of the tail LINE block b. Returns false if none (held). */
 static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_chunk *c)
 {
+    if (sg->e == 0 && !sg->blk_sent) {
+        /* the block's own slot first: directions, spindle, Bresenham */
+        c->kind = PK_SGC_BLOCK;
+        c->arg = b->dir_mask;
+        c->spindle = b->spindle;
+        memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
+        memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
+        c->u.blk.period = b->period;
+        sg->blk_sent = true;
+        return true;
+    }
     struct profile p;
     p.s0 = sg->s_q8;
     p.L = b->len_q8;
@@ -302,18 +320,30 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_ch
 
     uint32_t sa = p.s0, s1 = ev_s(b, e + 1), sl = ev_s(b, e + n - 1), sb = ev_s(b, e + n);
     int64_t e1 = prof_time(&p, sg->tick_hz, sa, s1);
+    if (n > 1 && e1 >= ((int64_t)PK_SG_CHUNK_TICKS_MAX << 16)) {
+        /* the estimate said several events, the exact time says one is long
+         * already: cut at one (the slow path below) */
+        n = 1;
+        sl = sa;
+        sb = s1;
+    }
     int64_t en = n > 1 ? prof_time(&p, sg->tick_hz, sl, sb) : e1;
     int64_t S = n > 1 ? prof_time(&p, sg->tick_hz, sa, sb) : e1;
-    c->kind = PK_SGC_STEPS;
-    c->n = n;
-    fit(c, n, e1 - sg->lag_q16, en, S - sg->lag_q16);
-    sg->lag_q16 += fit_sum(c) - S;
-    if (e == 0) {
-        c->first = 1;
-        c->dir_mask = b->dir_mask;
-        c->spindle = b->spindle;
-        memcpy(c->steps, b->steps, sizeof c->steps);
-        c->events = N;
+    struct fit3 f;
+    fit(&f, n, e1 - sg->lag_q16, en, S - sg->lag_q16);
+    if (n == 1 && f.c0 >= ((int64_t)1 << 30)) {
+        /* one event after a long interval: whole ticks + a Q16 fraction */
+        c->kind = PK_SGC_SLOW;
+        c->u.ticks = (uint32_t)(f.c0 >> 16 > UINT32_MAX ? UINT32_MAX : f.c0 >> 16);
+        c->n = (uint16_t)(f.c0 & 0xffff);
+        sg->lag_q16 += (((int64_t)c->u.ticks << 16) | c->n) - S;
+    } else {
+        c->kind = PK_SGC_STEPS;
+        c->n = (uint16_t)n;
+        c->u.st.c0 = (int32_t)f.c0;
+        c->u.st.c1 = (int32_t)f.c1;
+        c->u.st.c2 = (int32_t)f.c2;
+        sg->lag_q16 += fit_sum(&f, n) - S;
     }
     sg->v2 = prof_v2(&p, sb);
     c->v_um_s = v_q2(sg->v2) / 4u;
@@ -322,13 +352,15 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_ch
     return true;
 }
 
-bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
+bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
 {
     bool added = false;
     for (;;) {
         if (sg->held)
             return added;
         struct pk_block *b = pk_mq_at(q, 0);
+        if (b != NULL && max_blocks == 0)
+            return added; /* waiting for a final plan */
         if (b == NULL) {
             if (sg->hold)
                 sg->held = true; /* nothing left: the queue already ends at rest */
@@ -345,11 +377,13 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
             c->kind = b->type == PK_BLK_PEN       ? PK_SGC_TOOL
                       : b->type == PK_BLK_SPINDLE ? PK_SGC_SPINDLE
                                                   : PK_SGC_WAIT;
-            c->tool = b->tool;
+            c->arg = b->tool;
             c->spindle = b->spindle;
-            c->wait_ticks = (uint64_t)b->wait_ms * sg->tick_hz / 1000u;
+            uint64_t w = (uint64_t)b->wait_ms * sg->tick_hz / 1000u; /* < 2^27 * 2^24 */
+            c->u.ticks = (uint32_t)(w > UINT32_MAX ? UINT32_MAX : w);
             ring_commit(sg);
             pk_mq_pop(q);
+            max_blocks--;
             sg->v2 = 0;
             sg->lag_q16 = 0;
             added = true;
@@ -362,11 +396,42 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q)
         added = true;
         if (sg->e >= b->events) {
             pk_mq_pop(q);
+            max_blocks--;
             sg->prep_active = false;
+            sg->blk_sent = false;
             sg->e = 0;
             sg->s_q8 = 0;
         }
     }
+}
+
+int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    uint32_t tok = pk_hal_irq_save(hal);
+    int pulse = sg->busy && sg->phase == PK_SGP_PULSE && sg->alarm == 0;
+    if (pulse) {
+        /* empty the ring and end the chunk under way: after the pulse the
+         * callback stops (kill), so nothing more is emitted */
+        sg->kill = 1;
+        sg->left = 0;
+        sg->tail = sg->head;
+    }
+    pk_hal_irq_restore(hal, tok);
+    if (pulse) {
+        sg->prep_active = false;
+        sg->blk_sent = false;
+        sg->hold = false;
+        sg->held = false;
+        sg->e = 0;
+        sg->s_q8 = 0;
+        sg->v2 = 0;
+        sg->lag_q16 = 0;
+        return 1;
+    }
+    if (hal->ops->timer_stop)
+        (void)hal->ops->timer_stop(hal->ctx);
+    pk_sg_flush(sg);
+    return 0;
 }
 
 void pk_sg_flush(struct pk_stepgen *sg)
@@ -374,6 +439,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->head = 0u;
     sg->tail = 0u;
     sg->prep_active = false;
+    sg->blk_sent = false;
     sg->hold = false;
     sg->held = false;
     sg->e = 0;
@@ -384,6 +450,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->left = 0;
     sg->mask_due = 0;
     sg->busy = false;
+    sg->kill = 0;
     sg->alarm = 0;
     sg->v_um_s = 0u;
 }
@@ -411,9 +478,9 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
     if (sg->phase == PK_SGP_STEP_DUE) {
         uint32_t mask = 0;
         for (unsigned i = 0; i < sg->axes; i++) {
-            sg->acc[i] += (int32_t)sg->steps[i];
-            if (sg->acc[i] > 0) {
-                sg->acc[i] -= (int32_t)sg->events;
+            sg->acc[i] += (int32_t)sg->inc[i];
+            if (sg->acc[i] >= 0) {
+                sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
         }
@@ -429,9 +496,17 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         if (pk_hal_step_write(hal, all, 0u) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
         sg->phase = PK_SGP_GAP;
+        if (sg->kill) {
+            /* a reset came while this pulse was high: it has had its full
+             * width, the line is low, stop here */
+            sg->kill = 0;
+            sg->v_um_s = 0u;
+            sg->busy = false;
+            return 0;
+        }
     }
     uint64_t earliest = now;
-    if (sg->left == 0) {
+    while (sg->left == 0) {
         uint8_t t = sg->tail;
         uint8_t h = sg->head;
         PK_BARRIER(); /* read the chunk only after seeing it published */
@@ -441,23 +516,8 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (c->kind != PK_SGC_STEPS) {
-            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->tool) != 0)
-                return isr_alarm(sg, PK_ALARM_TOOL_WRITE);
-            if (c->kind == PK_SGC_SPINDLE) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS)
-                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                sg->spindle_cur = c->spindle;
-            }
-            uint64_t until = now + c->wait_ticks;
-            sg->v_um_s = 0u;
-            PK_BARRIER();
-            sg->tail = (uint8_t)(t + 1u);
-            sg->next_q16 = until << 16;
-            return until > now ? until : now + 1u;
-        }
-        if (c->first) {
+        switch (c->kind) {
+        case PK_SGC_BLOCK:
             if (c->spindle != sg->spindle_cur) {
                 int r = pk_hal_spindle_write(hal, c->spindle);
                 if (r != 0 && r != PK_HAL_ENOSYS)
@@ -465,26 +525,55 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->spindle_cur = c->spindle;
             }
             for (unsigned i = 0; i < sg->axes; i++) {
-                sg->steps[i] = c->steps[i];
-                sg->acc[i] = -(int32_t)(c->events >> 1);
+                sg->inc[i] = c->u.blk.inc[i];
+                sg->acc[i] = c->u.blk.acc0[i];
             }
-            sg->events = c->events;
-            if (c->dir_mask != sg->dir_cur) {
-                if (pk_hal_dir_write(hal, all, c->dir_mask) != 0)
+            sg->period = c->u.blk.period;
+            if (c->arg != sg->dir_cur) {
+                if (pk_hal_dir_write(hal, all, c->arg) != 0)
                     return isr_alarm(sg, PK_ALARM_DIR_WRITE);
-                sg->dir_cur = c->dir_mask;
+                sg->dir_cur = c->arg;
                 earliest = now + sg->dir_setup_ticks;
             }
+            break;
+        case PK_SGC_STEPS:
+            sg->left = c->n;
+            sg->I = c->u.st.c0;
+            sg->A = c->u.st.c1;
+            sg->B = c->u.st.c2;
+            sg->v_um_s = c->v_um_s;
+            break;
+        case PK_SGC_SLOW:
+            /* one event after a long interval: the recurrence's first term
+             * is added as whole ticks + fraction (no A, B) */
+            sg->left = 1;
+            sg->next_q16 += ((uint64_t)c->u.ticks << 16) | c->n;
+            sg->I = 0;
+            sg->A = 0;
+            sg->B = 0;
+            sg->v_um_s = c->v_um_s;
+            break;
+        default: {
+            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0)
+                return isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+            if (c->kind == PK_SGC_SPINDLE) {
+                int r = pk_hal_spindle_write(hal, c->spindle);
+                if (r != 0 && r != PK_HAL_ENOSYS)
+                    return isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                sg->spindle_cur = c->spindle;
+            }
+            uint64_t until = now + c->u.ticks;
+            sg->v_um_s = 0u;
+            PK_BARRIER();
+            sg->tail = (uint8_t)(t + 1u);
+            sg->next_q16 = until << 16;
+            return until > now ? until : now + 1u;
         }
-        sg->left = c->n;
-        sg->I = c->c0;
-        sg->A = c->c1;
-        sg->B = c->c2;
-        sg->v_um_s = c->v_um_s;
+        }
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
     }
-    sg->next_q16 += (uint64_t)sg->I;
+    sg->next_q16 += (uint64_t)(int64_t)sg->I;
     sg->I += sg->A;
     sg->A += sg->B;
     sg->left--;

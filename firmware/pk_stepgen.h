@@ -45,22 +45,40 @@
 #ifndef PK_SG_MAX_EVENTS
 #define PK_SG_MAX_EVENTS 64
 #endif
+#if PK_SG_MAX_EVENTS < 2 || PK_SG_MAX_EVENTS > 1024
+#error "PK_SG_MAX_EVENTS must be 2..1024"
+#endif
+/** Longest chunk, ticks: keeps every interval of a chunk of several events
+ *  below 2^14 ticks, so the recurrence fits 32 bits in Q16. */
+#define PK_SG_CHUNK_TICKS_MAX 16384u
 
-enum pk_sg_chunk_kind { PK_SGC_STEPS = 0, PK_SGC_TOOL = 1, PK_SGC_WAIT = 2, PK_SGC_SPINDLE = 3 };
+enum pk_sg_chunk_kind {
+    PK_SGC_STEPS = 0,   /**< n events on the quadratic recurrence */
+    PK_SGC_TOOL = 1,    /**< set the tool line, wait */
+    PK_SGC_WAIT = 2,    /**< wait */
+    PK_SGC_SPINDLE = 3, /**< set the spindle output, wait */
+    PK_SGC_BLOCK = 4,   /**< a line block starts: directions, spindle, Bresenham terms */
+    PK_SGC_SLOW = 5     /**< one event after a long interval (beyond the recurrence's range) */
+};
 
-/** One chunk (private). */
+/** One ring slot (private). Compact: the ISR-side arithmetic is 32-bit
+ *  except the absolute time. */
 struct pk_sg_chunk {
     uint8_t kind;              /**< enum pk_sg_chunk_kind */
-    uint8_t first;             /**< STEPS: first chunk of a block: load steps/dir */
-    uint8_t dir_mask;          /**< STEPS first: logical directions */
-    uint8_t tool;              /**< TOOL: logical level */
-    uint16_t spindle;          /**< STEPS first / SPINDLE: spindle value (Q0.16) */
-    uint32_t n;                /**< STEPS: events in the chunk (>= 1) */
-    int64_t c0, c1, c2;        /**< STEPS: I, A, B of the recurrence, ticks Q16 */
-    uint32_t steps[PK_AXES];   /**< STEPS first: |steps| per axis */
-    uint32_t events;           /**< STEPS first: events of the block */
-    uint64_t wait_ticks;       /**< TOOL/WAIT: wait after the action */
-    pk_um_s_t v_um_s;          /**< speed at the chunk's end (reports) */
+    uint8_t arg;               /**< TOOL: logical level; BLOCK: logical directions */
+    uint16_t n;                /**< STEPS: events (1..PK_SG_MAX_EVENTS); SLOW: the
+                                    interval's fraction of a tick, Q16 */
+    union {
+        struct { int32_t c0, c1, c2; } st; /**< STEPS: I, A, B of the recurrence, ticks Q16 */
+        uint32_t ticks;        /**< TOOL/WAIT/SPINDLE: wait; SLOW: whole ticks */
+        struct {
+            uint32_t inc[PK_AXES];  /**< Bresenham increments (pk_mq.h) */
+            int32_t acc0[PK_AXES];  /**< Bresenham start values */
+            uint32_t period;        /**< Bresenham period */
+        } blk;                 /**< BLOCK */
+    } u;
+    uint16_t spindle;          /**< BLOCK / SPINDLE: spindle value (Q0.16) */
+    uint32_t v_um_s;           /**< STEPS/SLOW: speed at the chunk's end (reports) */
 };
 
 /** Timer-side phase (private). */
@@ -75,6 +93,7 @@ struct pk_stepgen {
 
     /* ---- main-loop preparation state ---- */
     bool prep_active;          /**< the mq tail block is being cut into chunks */
+    bool blk_sent;             /**< its BLOCK slot is in the ring */
     bool hold;                 /**< decelerate to a stop, ignoring the plan */
     bool held;                 /**< hold reached speed 0: no more chunks until resume */
     uint32_t e;                /**< events already prepared in the tail block */
@@ -93,13 +112,17 @@ struct pk_stepgen {
     uint16_t spindle_cur;      /**< spindle value as last written */
     uint8_t mask_due;          /**< axes to step at the pending edge */
     uint32_t left;             /**< events left in the current chunk */
-    int64_t I, A, B;           /**< recurrence state, ticks Q16 */
+    int32_t I, A, B;           /**< recurrence state, ticks Q16 (chunks are at most
+                                    PK_SG_CHUNK_TICKS_MAX long, so |I| < 2^30) */
     uint64_t next_q16;         /**< absolute tick (Q16) of the last scheduled event */
     uint64_t earliest;         /**< no step edge before this tick (dir set-up) */
-    uint32_t steps[PK_AXES];
-    uint32_t events;
-    int32_t acc[PK_AXES];      /**< Bresenham accumulators */
+    uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
+    uint32_t period;
+    int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
+                                    event when its accumulator reaches 0 */
     volatile uint8_t busy;     /**< 1 from timer_start until the ISR returns 0 */
+    volatile uint8_t kill;     /**< reset came during a pulse: the ISR ends it on
+                                    time, then stops (finding M2) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
     uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
@@ -113,11 +136,12 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
                 uint32_t dir_setup_ticks);
 
 /**
- * Prepare chunks from the tail of q while the ring has room. Pops a block
- * from q once all its chunks are in the ring. MAIN.
+ * Prepare chunks from the tail of q while the ring has room, from at most the
+ * first max_blocks blocks (those whose plan is final, see pk_planner.h). Pops
+ * a block from q once all its chunks are in the ring. MAIN.
  * @return true if at least one chunk was added
  */
-bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q);
+bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks);
 
 /** Speed^2 and remaining length of the tail block as the planner must see
  *  them (entry fixed at the prepared state). MAIN. */
@@ -136,5 +160,12 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
 /** Drop everything queued and the timer-side state, keep the position. Call
  *  only with the timer stopped. MAIN. */
 void pk_sg_flush(struct pk_stepgen *sg);
+
+/** Reset while the timer may still run: if a step pulse is high, leave the
+ *  timer armed so that the callback lowers it after the full pulse width and
+ *  then stops (returns 1); otherwise stop the timer and flush (returns 0).
+ *  Either way nothing queued runs any more and the position is kept. MAIN,
+ *  with interrupts enabled (it masks them itself through the HAL). */
+int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal);
 
 #endif

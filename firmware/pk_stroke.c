@@ -1,6 +1,88 @@
 /*
- * pk_stroke.c — stroke assembler and tolerance decimator (see pk_stroke.h for
- * the policy and the error bound).
+ * pk_stroke.c — the smoothing policy: how a run of programmed feed moves
+ * becomes the path the machine executes (contract in pk_stroke.h).
+ *
+ * Why it is built this way
+ * ------------------------
+ * The user's promise (LinuxCNC's G64 P) is about the PROGRAMMED path: the
+ * executed path stays within T of it. Smoothing the programmed vertices
+ * themselves cannot keep that promise: a subdivision curve cuts a corner by
+ * an amount that grows with the legs (a 100 mm zig-zag loses centimetres).
+ * So the control polygon is built ON the programmed path instead, with extra
+ * points along each leg that fix how much of the corner is blended:
+ *
+ *        A ---------- X ---- V                    X = V - 2a u1,  Y = V + 2b u2
+ *                             \                   (u1, u2: unit leg directions)
+ *                              Y
+ *                               \
+ *                                B
+ *
+ * For the quadratic B-spline (Chaikin's scheme, the kernel's degree 2) the
+ * curve over the control points X, V, Y is the parabola (Bézier) from
+ * V - a u1 to V + b u2 with control point V; wherever three consecutive
+ * control points are collinear the curve is straight. Its distance to the two
+ * legs (the lines through V): a curve point is V - (1-t)^2 a u1 + t^2 b u2,
+ * at distance t^2 b sin(phi) from leg 1 and (1-t)^2 a sin(phi) from leg 2
+ * (phi = the turn angle); inside the corner's wedge the distance to the
+ * polyline is the smaller of the two, largest where they are equal:
+ *
+ *     dev(a, b) = a b sin(phi) / (sqrt(a) + sqrt(b))^2  <=  cap sin(phi) / 4
+ *
+ * when a, b <= cap (dev grows with a and b; dev(c, c) = c sin(phi) / 4). So a
+ * vertex with blend budget E gets the capacity cap = 4 E / sin(phi): every
+ * blend half-length at that vertex is at most cap. Per leg A -> B (length L):
+ *
+ *   - if L/2 <= cap(A) and L/2 <= cap(B): no point is added; the blends of A
+ *     and B meet at the leg's midpoint (a = b = L/2: dense polylines from SVG
+ *     flattening or CAM chords become the smooth quadratic spline through
+ *     their chord midpoints, within T of the chords);
+ *   - otherwise b = min(cap(A), L/4), a = min(cap(B), L/4), then each grows
+ *     into what the other left, b + a <= L/2; the points A + 2b u and
+ *     B - 2a u are added (one point if they coincide) and the leg between the
+ *     blends stays exactly straight.
+ *
+ * A vertex turning by more than sharp_turn_deg (or a reversal), a vertex with
+ * no budget, a corner whose exact kink the planner would take faster than
+ * the blend (Grbl's junction deviation at a wide corner with long legs: the
+ * smoothing is then never slower than G61), and both ends of the stroke are
+ * given twice: a doubled control
+ * point is passed through exactly, with a corner (the planner slows for it
+ * as for any junction). Only the vertices V(j-1), V(j), V(j+1), V(j+2) decide
+ * the points of leg j: two vertices of look-ahead, and nothing depends on when
+ * the vertices arrive.
+ *
+ * The kernel refines this polygon (clamped Chaikin, PK_STROKE_TOL_DEPTH
+ * levels). Chaikin is corner cutting: every level is inscribed in the one
+ * before and circumscribes the curve, so near each corner the level-k polygon
+ * lies between the parabola and the two legs. Inside the wedge, the set of
+ * points within `dev` of the legs is bounded by two half-lines parallel to
+ * the legs; its complement is convex and unbounded away from V, so a region
+ * enclosed by the legs and a curve within `dev` of them lies entirely within
+ * `dev` too. Hence EVERY level, at any depth, is within E of the programmed
+ * path (the depth only decides how smooth the polygon is: at depth 3 it is
+ * within E/64 of the curve for corners up to 120 degrees). Between blends the
+ * polygon runs along the legs. Everything stays inside the convex hull of the
+ * programmed points, so a travel box that holds the program holds the path.
+ *
+ * Finally the decimator keeps the fewest refined points such that every
+ * refined point between two kept ones is within T/4 of their chord (a cone of
+ * admissible directions from the last kept point, narrowed by each point's
+ * tolerance disc, O(1) memory; the chord's far end never comes closer than an
+ * earlier point, so each point projects inside the chord). Every refined point
+ * within T/4 of the chord also puts the chord within T/4 of the refined
+ * polygon (the polygon crosses every normal of the chord, within T/4 of it).
+ * The budget therefore reads
+ *
+ *     T = E (blends) + T/4 (decimator) + 2 µm (whole-µm control points and
+ *         kernel outputs: each within sqrt(3)/2 µm of exact)
+ *
+ * and a vertex next to a chord of a flattened curve spends its chord error
+ * out of E. The step generator adds at most half a step per axis (its
+ * Bresenham starts from the exact fractional position, pk_motion.c).
+ *
+ * Z: the blends are built in 3-D (the corner's plane). The decimator works in
+ * XY and ends a chord wherever Z changes, so 3-D curves are executed point by
+ * point (correct, more segments).
  */
 #include <string.h>
 #include "pk_stroke.h"
@@ -25,6 +107,23 @@ static pk_q30_t cos_deg_q30(uint32_t deg)
     return (pk_q30_t)(neg ? -t : t);
 }
 
+/* The kernel configuration a policy runs with. */
+static void kernel_cfg(const struct pk_smooth_cfg *s, uint8_t axes, struct pk_refine_cfg *c)
+{
+    memset(c, 0, sizeof *c);
+    c->dims = axes;
+    if (s->mode == PK_SMOOTH_FIXED) {
+        c->scheme = s->scheme;
+        c->degree = s->degree;
+        c->depth = s->depth;
+    } else {
+        c->scheme = PK_SCHEME_BSPLINE;
+        c->degree = 2;
+        c->ends = PK_ENDS_CLAMPED;
+        c->depth = PK_STROKE_TOL_DEPTH;
+    }
+}
+
 int pk_stroke_check(const struct pk_smooth_cfg *s)
 {
     if (s == NULL || s->mode > PK_SMOOTH_TOLERANCE || s->sharp_turn_deg > 180u)
@@ -35,28 +134,36 @@ int pk_stroke_check(const struct pk_smooth_cfg *s)
         if (s->scheme == PK_SCHEME_BSPLINE && (s->degree < 1u || s->degree > 7u))
             return -1;
     }
-    if (s->mode == PK_SMOOTH_TOLERANCE) {
-        if (s->degree != 0u && s->degree != 2u && s->degree != 3u)
-            return -1;
-        if (s->tolerance_um < 1 || s->tolerance_um > 10000)
-            return -1;
-    }
-    return 0;
+    if (s->mode == PK_SMOOTH_TOLERANCE && (s->tolerance_um < 1 || s->tolerance_um > 10000))
+        return -1;
+    if (s->mode == PK_SMOOTH_OFF)
+        return 0;
+    /* Is the scheme built into this firmware? Ask the kernel itself. */
+    struct pk_refine scratch;
+    struct pk_refine_cfg c;
+    kernel_cfg(s, 2, &c);
+    int r = pk_refine_init(&scratch, &c);
+    if (r == PK_ENOTSUP)
+        return -2;
+    return r == PK_OK ? 0 : -1;
 }
 
 static void apply(struct pk_stroke *st, const struct pk_smooth_cfg *s)
 {
     st->mode = s->mode;
     st->scheme = s->scheme;
-    st->degree = s->mode == PK_SMOOTH_TOLERANCE ? (s->degree ? s->degree : 3u) : s->degree;
+    st->degree = s->degree;
     st->fixed_depth = s->depth;
     st->tol_um = s->tolerance_um;
     st->cos_sharp = cos_deg_q30(s->sharp_turn_deg ? s->sharp_turn_deg : 60u);
 }
 
-void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s)
+void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d) { st->dyn = *d; }
+
+void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t axes)
 {
     memset(st, 0, sizeof *st);
+    st->axes = axes < 2u ? 2u : axes > PK_AXES ? (uint8_t)PK_AXES : axes;
     apply(st, s);
 }
 
@@ -70,41 +177,221 @@ int pk_stroke_set(struct pk_stroke *st, const struct pk_smooth_cfg *s)
 
 bool pk_stroke_is_open(const struct pk_stroke *st) { return st->open; }
 
-/* M/(2*4^k) <= T/2  <=>  M <= T*4^k: the largest M depth k covers */
-static uint64_t cap_m(pk_um_t tol_um, uint8_t k) { return (uint64_t)tol_um << (2u * k); }
-
-uint8_t pk_stroke_depth_for(uint32_t m_um, pk_um_t tol_um)
+int32_t pk_stroke_blend_budget(pk_um_t tol_um, pk_um_t chord_err_um)
 {
-    if (tol_um < 1)
-        tol_um = 1;
-    uint8_t k = 0;
-    while (k < PK_MAX_DEPTH && (uint64_t)m_um > cap_m(tol_um, k))
-        k++;
-    return k;
+    int32_t e = tol_um - tol_um / 4 - PK_STROKE_ROUND_UM - chord_err_um;
+    return e < 0 ? 0 : e;
+}
+
+/* ------------------------------------------------------------ geometry */
+
+/* |d| in µm Q8; |d[i]| < 2^23 (differences of coordinates within ±PK_UM_MAX). */
+static uint32_t len_q8(const int64_t *d, unsigned n)
+{
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < n; i++)
+        ss += (uint64_t)(d[i] * d[i]);
+    return pk_isqrt64(ss << 16); /* < 3 * 2^46 * 2^16 < 2^64 */
+}
+
+static void diff(const pk_um_t a[PK_AXES], const pk_um_t b[PK_AXES], int64_t d[PK_AXES])
+{
+    for (unsigned i = 0; i < PK_AXES; i++)
+        d[i] = (int64_t)b[i] - a[i];
+}
+
+/* Is the kink at a corner (the exact path: Grbl's junction deviation and the
+ * curvature over its legs, as the planner will take it) slower than a blend of
+ * half-length up to cap? The blend's radius at its apex is h cos^2(phi/2) /
+ * sin(phi/2) (a symmetric parabola of half-length h, h = cap or half the
+ * shorter leg), driven at the planner's sideways acceleration. A heuristic
+ * choice only: either way the path is within the tolerance and the planner
+ * keeps the limits. */
+static bool kink_slower(const struct pk_stroke *st, const int64_t u1[PK_AXES],
+                        const int64_t u2[PK_AXES], uint32_t l1_q8, uint32_t l2_q8, uint32_t cap,
+                        int64_t cos_q30, uint64_t sin_q30)
+{
+    pk_q30_t a[PK_AXES] = { 0 }, b[PK_AXES] = { 0 };
+    for (unsigned i = 0; i < st->axes; i++) {
+        a[i] = (pk_q30_t)u1[i];
+        b[i] = (pk_q30_t)u2[i];
+    }
+    pk_v2_q4_t kink = pk_planner_junction_v2(a, b, st->axes, st->dyn.a_min, st->dyn.delta_um);
+    pk_v2_q4_t kc = pk_planner_curvature_v2(a, b, st->axes, l1_q8, l2_q8, st->dyn.a_side);
+    if (kc < kink)
+        kink = kc;
+    uint64_t h_q8 = (uint64_t)cap << 8, lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;
+    if (h_q8 > lmin)
+        h_q8 = lmin;
+    /* cos^2(phi/2) = (1 + cos)/2, sin(phi/2) = sqrt((1 - cos)/2), Q30 */
+    uint64_t c2 = (uint64_t)(PK_Q30_ONE + cos_q30) / 2u;
+    uint64_t sh = pk_isqrt64(((uint64_t)(PK_Q30_ONE - cos_q30) / 2u) << 30);
+    (void)sin_q30;
+    if (sh == 0)
+        return true;
+    uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10);         /* µm Q8 */
+    /* v^2 (Q4) = a * r: a (µm/s^2) * r_q8 / 256 * 16 */
+    pk_v2_q4_t blend = ((uint64_t)st->dyn.a_side * r_q8) >> 4;
+    return kink < blend;
+}
+
+/** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
+ *  0 (keep sharp) for a turn beyond the threshold, a reversal or no budget. */
+#define CAP_INF ((uint32_t)1 << 30)
+static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
+                           const pk_um_t b[PK_AXES], const pk_um_t c[PK_AXES], pk_um_t err)
+{
+    int64_t d1[PK_AXES], d2[PK_AXES];
+    diff(a, b, d1);
+    diff(b, c, d2);
+    unsigned n = st->axes;
+    uint32_t l1 = len_q8(d1, n), l2 = len_q8(d2, n);
+    if (l1 == 0 || l2 == 0)
+        return 0;
+    int64_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
+    for (unsigned i = 0; i < n; i++) {
+        u1[i] = (d1[i] * ((int64_t)1 << 38)) / l1; /* Q30; |d| << 38 < 2^61 */
+        u2[i] = (d2[i] * ((int64_t)1 << 38)) / l2;
+    }
+    int64_t dot = 0;
+    for (unsigned i = 0; i < n; i++)
+        dot += u1[i] * u2[i];
+    dot >>= 30;
+    if (dot < st->cos_sharp)
+        return 0;
+    uint64_t s2 = 0;                 /* |u1 x u2|^2 in Q60 */
+    if (n == 2) {
+        int64_t cr = (u1[0] * u2[1] - u1[1] * u2[0]) >> 30;
+        s2 = (uint64_t)(cr * cr);
+    } else {
+        for (unsigned i = 0; i < 3; i++) {
+            unsigned j = (i + 1u) % 3u, k = (i + 2u) % 3u;
+            int64_t cr = (u1[j] * u2[k] - u1[k] * u2[j]) >> 30;
+            s2 += (uint64_t)(cr * cr);
+        }
+    }
+    uint64_t sin_q30 = pk_isqrt64(s2);
+    int32_t e = pk_stroke_blend_budget(st->tol_um, err);
+    if (e <= 0)
+        return 0;
+    if (sin_q30 == 0)
+        return dot > 0 ? CAP_INF : 0;
+    uint64_t cap = (((uint64_t)4 * (uint64_t)e) << 30) / sin_q30; /* 4E < 2^16 */
+    if (cap > CAP_INF)
+        cap = CAP_INF;
+    if (st->dyn.a_side > 0 && !kink_slower(st, u1, u2, l1, l2, (uint32_t)cap, dot, sin_q30))
+        return 0; /* the programmed corner is as fast: keep it exact */
+    return (uint32_t)cap;
+}
+
+/* ------------------------------------------------------------ kernel feed */
+
+static void queue_pt(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+{
+    memcpy(st->q[(st->q_head + st->nq) % 4u], p, sizeof st->q[0]);
+    st->nq++;
+}
+
+/* p = a + d * num / den (rounded to nearest), per axis. */
+static void along(const pk_um_t a[PK_AXES], const int64_t d[PK_AXES], uint64_t num, uint64_t den,
+                  pk_um_t p[PK_AXES])
+{
+    for (unsigned i = 0; i < PK_AXES; i++)
+        p[i] = (pk_um_t)(a[i] + pk_div_round64(d[i] * (int64_t)num, (int64_t)den));
+}
+
+/* Queue the points added on leg v[0] -> v[1] (caps known for both ends). */
+static void queue_leg(struct pk_stroke *st)
+{
+    const pk_um_t *a = st->v[0], *b = st->v[1];
+    int64_t d[PK_AXES];
+    diff(a, b, d);
+    uint64_t lq = len_q8(d, st->axes);               /* L, µm Q8 */
+    uint64_t ca = (uint64_t)st->cap[0] << 8, cb = (uint64_t)st->cap[1] << 8; /* Q8 */
+    if (lq == 0 || (2u * ca >= lq && 2u * cb >= lq))
+        return;                                       /* blends meet at the midpoint */
+    uint64_t half = lq / 2u, quarter = lq / 4u;
+    uint64_t fb = ca < quarter ? ca : quarter;        /* blend at a, forward */
+    uint64_t fa = cb < quarter ? cb : quarter;        /* blend at b, backward */
+    fb = ca < half - fa ? ca : half - fa;
+    fa = cb < half - fb ? cb : half - fb;
+    pk_um_t y[PK_AXES], x[PK_AXES];
+    bool have_y = fb > 0, have_x = fa > 0;
+    if (have_y)
+        along(a, d, 2u * fb, lq, y);                  /* a + 2 b u: 2b <= L, d*2b < 2^54 */
+    if (have_x)
+        along(a, d, lq - 2u * fa, lq, x);             /* b - 2 a u */
+    if (have_y)
+        queue_pt(st, y);
+    if (have_x && !(have_y && memcmp(x, y, sizeof x) == 0))
+        queue_pt(st, x);
+}
+
+/* Queue the vertex v[1] (twice where it must stay sharp). */
+static void queue_vertex(struct pk_stroke *st, bool twice)
+{
+    queue_pt(st, st->v[1]);
+    if (twice)
+        queue_pt(st, st->v[1]);
+}
+
+/* With v[0..2] held: decide v[1]'s cap, queue leg 0 and v[1], shift. */
+static void advance(struct pk_stroke *st)
+{
+    pk_um_t err = st->err_in[1] > st->err_in[2] ? st->err_in[1] : st->err_in[2];
+    st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
+    queue_leg(st);
+    queue_vertex(st, st->cap[1] == 0);
+    if (st->cap[1] == 0) {
+        /* a corner kept sharp: the refined path passes through it exactly;
+         * the decimator ends a chord there and flags it (pk_stroke_pull) */
+        if (st->ncorner == 3u) {
+            memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
+            st->ncorner = 2;  /* (the oldest is dropped: treated as smooth, slower) */
+        }
+        memcpy(st->corner[st->ncorner++], st->v[1], sizeof st->corner[0]);
+    }
+    memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
+    memmove(&st->err_in[0], &st->err_in[1], 2 * sizeof st->err_in[0]);
+    st->cap[0] = st->cap[1];
+    st->nv = 2;
+}
+
+/* Finishing: the last held vertex is the stroke's end. */
+static void advance_last(struct pk_stroke *st)
+{
+    if (st->nv == 2) {
+        st->cap[1] = 0;
+        queue_leg(st);
+        queue_vertex(st, true);
+        memcpy(st->v[0], st->v[1], sizeof st->v[0]);
+    }
+    st->nv = 1;
+}
+
+static void observe(struct pk_stroke *st, uint8_t ev, const pk_um_t p[PK_AXES])
+{
+    if (st->observe)
+        st->observe(st->observe_ctx, ev, p);
 }
 
 static void kernel_start(struct pk_stroke *st, const pk_um_t start[PK_AXES])
 {
     struct pk_refine_cfg c;
-    memset(&c, 0, sizeof c);
-    if (st->mode == PK_SMOOTH_FIXED) {
-        c.scheme = st->scheme;
-        c.degree = st->degree;
-        c.depth = st->fixed_depth;
-    } else {
-        c.scheme = PK_SCHEME_BSPLINE;
-        c.degree = st->degree;
-        c.depth = st->depth;
-    }
-    (void)pk_refine_init(&st->k, &c); /* validated by pk_stroke_check */
+    struct pk_smooth_cfg s;
+    memset(&s, 0, sizeof s);
+    s.mode = st->mode;
+    s.scheme = st->scheme;
+    s.degree = st->degree;
+    s.depth = st->fixed_depth;
+    kernel_cfg(&s, st->axes, &c);
+    (void)pk_refine_init(&st->k, &c); /* the policy passed pk_stroke_check */
     (void)pk_refine_push(&st->k, start);
-    st->have_anchor = true;
-    memcpy(st->anchor, start, sizeof st->anchor);
-    st->ncand = 0;
+    observe(st, PK_STROKE_EV_BEGIN, start);
     st->kernel_end = false;
 }
 
-int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES], uint32_t d2_hint)
+int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
 {
     if (st->open)
         return -1;
@@ -115,70 +402,63 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES], uint32_t
     st->have_out = false;
     st->emit_n = 0;
     st->n_in = 1;
+    st->nq = 0;
+    st->q_head = 0;
+    st->ncorner = 0;
     memcpy(st->prev, start, sizeof st->prev);
     memcpy(st->prev2, start, sizeof st->prev2);
+    if (st->mode == PK_SMOOTH_OFF)
+        return 0;
+    kernel_start(st, start);
+    st->have_anchor = true;
+    memcpy(st->anchor, start, sizeof st->anchor);
+    st->have_cand = false;
     if (st->mode == PK_SMOOTH_TOLERANCE) {
-        /* at least depth 2, so that gentle vertices arriving later rarely split */
-        uint32_t m = d2_hint;
-        uint32_t floor_m = (uint32_t)st->tol_um * 16u; /* = the depth-2 capacity */
-        if (m < floor_m)
-            m = floor_m;
-        st->depth = pk_stroke_depth_for(m, st->tol_um);
-        uint64_t cap = cap_m(st->tol_um, st->depth);   /* largest M this depth covers */
-        st->d2_cap = cap * cap;                          /* compared with |D2|^2 */
+        queue_pt(st, start);           /* the start is doubled: passed exactly */
+        memcpy(st->v[0], start, sizeof st->v[0]);
+        st->err_in[0] = 0;
+        st->cap[0] = 0;
+        st->nv = 1;
     }
-    if (st->mode != PK_SMOOTH_OFF)
-        kernel_start(st, start);
     return 0;
 }
 
-/* |a| in µm Q8 */
-static uint32_t len_q8(const int64_t a[PK_AXES])
-{
-    uint64_t ss = 0;
-    for (unsigned i = 0; i < PK_AXES; i++)
-        ss += (uint64_t)(a[i] * a[i]);
-    return pk_isqrt64(ss << 16);
-}
-
-/* Does the vertex prev (between prev2 and q) have to stay sharp? */
+/* FIXED: does the vertex prev (between prev2 and q) have to stay sharp? */
 static bool must_split(const struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
-    if (st->mode == PK_SMOOTH_OFF || st->n_in < 2)
+    if (st->n_in < 2)
         return false;
     int64_t a[PK_AXES], b[PK_AXES];
+    diff(st->prev2, st->prev, a);
+    diff(st->prev, q, b);
     int64_t dot = 0;
-    uint64_t d2 = 0;
-    for (unsigned i = 0; i < PK_AXES; i++) {
-        a[i] = (int64_t)st->prev[i] - st->prev2[i];
-        b[i] = (int64_t)q[i] - st->prev[i];
+    for (unsigned i = 0; i < PK_AXES; i++)
         dot += a[i] * b[i];
-        int64_t dd = b[i] - a[i];
-        d2 += (uint64_t)(dd * dd);
-    }
-    uint32_t la = len_q8(a), lb = len_q8(b);
+    uint32_t la = len_q8(a, PK_AXES), lb = len_q8(b, PK_AXES);
     if (la == 0 || lb == 0)
         return false;
     int64_t y_q8 = (dot * 65536) / (int64_t)la;         /* dot/|a|, µm Q8 */
     int64_t cos_q30 = (y_q8 * PK_Q30_ONE) / (int64_t)lb; /* |y_q8| < 2^31 */
-    if (cos_q30 < st->cos_sharp)
-        return true;
-    if (st->mode == PK_SMOOTH_TOLERANCE && d2 > st->d2_cap)
-        return true;
-    return false;
+    return cos_q30 < st->cos_sharp;
 }
 
-int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_err_um)
 {
     if (!st->open || st->finishing)
         return PK_ESTATE;
-    if (st->have_pend || st->have_out || st->split_pending)
+    if (st->have_pend || st->have_out || st->split_pending || st->nq > 0)
         return PK_EBUSY;
     if (memcmp(p, st->prev, sizeof st->prev) == 0)
         return PK_OK; /* zero-length: nothing to draw, no vertex */
     if (st->mode == PK_SMOOTH_OFF) {
         memcpy(st->out, p, sizeof st->out);
         st->have_out = true;
+    } else if (st->mode == PK_SMOOTH_TOLERANCE) {
+        memcpy(st->v[st->nv], p, sizeof st->v[0]);
+        st->err_in[st->nv] = chord_err_um;
+        st->nv++;
+        if (st->nv == 3)
+            advance(st);
     } else if (must_split(st, p)) {
         memcpy(st->pend, p, sizeof st->pend);
         st->have_pend = true;
@@ -191,6 +471,8 @@ int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES])
             st->have_pend = true;
         } else if (r != PK_OK) {
             return r;
+        } else {
+            observe(st, PK_STROKE_EV_CTRL, p);
         }
     }
     memcpy(st->prev2, st->prev, sizeof st->prev);
@@ -204,77 +486,140 @@ void pk_stroke_finish(struct pk_stroke *st)
     if (!st->open || st->finishing)
         return;
     st->finishing = true;
-    if (st->mode != PK_SMOOTH_OFF && !st->have_pend)
+    if (st->mode == PK_SMOOTH_FIXED && !st->have_pend)
         pk_refine_finish(&st->k);
+    /* TOLERANCE: the last leg is queued once the queue has drained (pull) */
 }
 
-static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+static void emit_f(struct pk_stroke *st, const pk_um_t p[PK_AXES], bool sharp)
 {
     memcpy(st->emit[st->emit_n], p, sizeof st->emit[0]);
+    st->emit_sharp[st->emit_n] = sharp;
     st->emit_n++;
 }
 
-/* Distance test: is c within tol of segment a-q? (µm, 64-bit exact enough:
- * cross components are divided by |q-a| before squaring). */
-static bool near_seg(const pk_um_t a[PK_AXES], const pk_um_t q[PK_AXES], uint32_t L,
-                     const pk_um_t c[PK_AXES], pk_um_t tol)
+static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { emit_f(st, p, false); }
+
+/* ------------------------------------------------------------ decimator */
+
+static int64_t cross2(const int32_t a[2], int64_t bx, int64_t by) { return a[0] * by - a[1] * bx; }
+
+/* The two directions from the anchor tangent to the disc of radius tol around
+ * a point at d (|d| = r > tol), Q1.30, clockwise one first. */
+static void tangents(const int64_t d[2], uint32_t r_q8, uint32_t tol_q8, int32_t rt[2],
+                     int32_t lt[2])
 {
-    int64_t d[PK_AXES], v[PK_AXES];
-    for (unsigned i = 0; i < PK_AXES; i++) {
-        d[i] = (int64_t)q[i] - a[i];
-        v[i] = (int64_t)c[i] - a[i];
-    }
-    uint64_t t2 = (uint64_t)tol * (uint64_t)tol << 16; /* (tol in Q8)^2 */
-    int64_t dot = 0;
-    for (unsigned i = 0; i < PK_AXES; i++)
-        dot += d[i] * v[i];
-    int64_t ll = 0;
-    for (unsigned i = 0; i < PK_AXES; i++)
-        ll += d[i] * d[i];
-    if (L == 0 || dot <= 0 || dot >= ll) {
-        /* beyond an end: distance to that end */
-        const pk_um_t *e = (L == 0 || dot <= 0) ? a : q;
-        uint64_t s = 0;
-        for (unsigned i = 0; i < PK_AXES; i++) {
-            int64_t w = ((int64_t)c[i] - e[i]) * 256;
-            s += (uint64_t)(w * w);
-        }
-        return s <= t2;
-    }
-    /* |d x v| / |d|, component-wise, in µm Q8 */
-    uint64_t s = 0;
-    for (unsigned i = 0; i < PK_AXES; i++) {
-        unsigned j = (i + 1u) % PK_AXES, k = (i + 2u) % PK_AXES;
-        if (PK_AXES == 2 && i == 1)
-            break;
-        int64_t cr = (PK_AXES == 2) ? d[0] * v[1] - d[1] * v[0] : d[j] * v[k] - d[k] * v[j];
-        int64_t w = (cr * 65536) / (int64_t)L; /* |cr| < 2^46 */
-        s += (uint64_t)(w * w);
-    }
-    return s <= t2;
+    int64_t ux = (d[0] * ((int64_t)1 << 38)) / r_q8, uy = (d[1] * ((int64_t)1 << 38)) / r_q8;
+    uint64_t rr = (uint64_t)r_q8 * r_q8, tt = (uint64_t)tol_q8 * tol_q8;
+    int64_t cb = (int64_t)(((uint64_t)pk_isqrt64(rr - tt) << 30) / r_q8); /* cos(beta) */
+    int64_t sb = (int64_t)(((uint64_t)tol_q8 << 30) / r_q8);             /* sin(beta) */
+    rt[0] = (int32_t)((ux * cb + uy * sb) >> 30);
+    rt[1] = (int32_t)((uy * cb - ux * sb) >> 30);
+    lt[0] = (int32_t)((ux * cb - uy * sb) >> 30);
+    lt[1] = (int32_t)((uy * cb + ux * sb) >> 30);
 }
+
+/* tol for the decimator: T/4 (FIXED: PK_STROKE_FIXED_DEC_UM) in µm Q8, a
+ * hair inside (rounding of the cone). */
+static uint32_t dec_tol_q8(const struct pk_stroke *st)
+{
+    pk_um_t tol = st->mode == PK_SMOOTH_TOLERANCE ? st->tol_um / 4 : PK_STROKE_FIXED_DEC_UM;
+    uint32_t t = (uint32_t)tol << 8;
+    return t > 1u ? t - 1u : 0u;
+}
+
+/* Start a chord from the anchor to q. */
+static void cand_start(struct pk_stroke *st, const pk_um_t q[PK_AXES])
+{
+    int64_t d[2] = { (int64_t)q[0] - st->anchor[0], (int64_t)q[1] - st->anchor[1] };
+    uint32_t r = len_q8(d, 2), tol = dec_tol_q8(st);
+    memcpy(st->cand, q, sizeof st->cand);
+    st->cand_r_q8 = r;
+    st->have_cand = true;
+    st->cone_empty = false;
+    st->cone_full = r <= tol;
+    if (!st->cone_full)
+        tangents(d, r, tol, st->cone_r, st->cone_l);
+}
+
+static void new_anchor_at_cand(struct pk_stroke *st)
+{
+    emit(st, st->cand);
+    memcpy(st->anchor, st->cand, sizeof st->anchor);
+    st->have_cand = false;
+}
+
+static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES]);
 
 static void decimate(struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
-    pk_um_t half = st->tol_um / 2; /* T/2; at least 1 µm (points are whole µm) */
-    if (half < 1)
-        half = 1;
-    bool ok = st->ncand < PK_STROKE_DEC;
-    int64_t d[PK_AXES];
-    for (unsigned i = 0; i < PK_AXES; i++)
-        d[i] = (int64_t)q[i] - st->anchor[i];
-    uint32_t L = len_q8(d); /* once per new point: the chord anchor -> q */
-    for (unsigned j = 0; ok && j < st->ncand; j++)
-        ok = near_seg(st->anchor, q, L, st->cand[j], half);
-    if (!ok) {
-        const pk_um_t *last = st->cand[st->ncand - 1u];
-        emit(st, last);
-        memcpy(st->anchor, last, sizeof st->anchor);
-        st->ncand = 0;
+    decimate_pt(st, q);
+    if (st->ncorner > 0 && memcmp(q, st->corner[0], sizeof st->corner[0]) == 0) {
+        /* the corner: the chord ends here, and the planner treats the
+         * junction as a programmed corner */
+        if (st->have_cand && memcmp(st->cand, q, sizeof st->cand) == 0) {
+            emit_f(st, st->cand, true);
+            memcpy(st->anchor, st->cand, sizeof st->anchor);
+            st->have_cand = false;
+        }
+        memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
+        st->ncorner--;
     }
-    memcpy(st->cand[st->ncand], q, sizeof st->cand[0]);
-    st->ncand++;
 }
+
+static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES])
+{
+    const pk_um_t *last = st->have_cand ? st->cand : st->anchor;
+    if (memcmp(q, last, sizeof st->cand) == 0)
+        return;
+    if (st->axes > 2u) {
+        for (unsigned i = 2; i < st->axes; i++) {
+            if (q[i] != st->anchor[i] || (st->have_cand && st->cand[i] != st->anchor[i])) {
+                /* out of the XY plane of the chord: keep every point */
+                if (st->have_cand)
+                    new_anchor_at_cand(st);
+                emit(st, q);
+                memcpy(st->anchor, q, sizeof st->anchor);
+                return;
+            }
+        }
+    }
+    if (!st->have_cand) {
+        cand_start(st, q);
+        return;
+    }
+    int64_t d[2] = { (int64_t)q[0] - st->anchor[0], (int64_t)q[1] - st->anchor[1] };
+    uint32_t r = len_q8(d, 2);
+    bool ok = !st->cone_empty && r >= st->cand_r_q8
+              && (st->cone_full
+                  || (cross2(st->cone_r, d[0], d[1]) >= 0 && cross2(st->cone_l, d[0], d[1]) <= 0));
+    if (!ok) {
+        new_anchor_at_cand(st);
+        cand_start(st, q);
+        return;
+    }
+    uint32_t tol = dec_tol_q8(st);
+    if (r > tol) {
+        int32_t rt[2], lt[2];
+        tangents(d, r, tol, rt, lt);
+        if (st->cone_full) {
+            memcpy(st->cone_r, rt, sizeof rt);
+            memcpy(st->cone_l, lt, sizeof lt);
+            st->cone_full = false;
+        } else {
+            if (cross2(st->cone_r, rt[0], rt[1]) > 0)   /* rt is left of r: tighter */
+                memcpy(st->cone_r, rt, sizeof rt);
+            if (cross2(st->cone_l, lt[0], lt[1]) < 0)   /* lt is right of l: tighter */
+                memcpy(st->cone_l, lt, sizeof lt);
+            if (cross2(st->cone_r, st->cone_l[0], st->cone_l[1]) < 0)
+                st->cone_empty = true;
+        }
+    }
+    memcpy(st->cand, q, sizeof st->cand);
+    st->cand_r_q8 = r;
+}
+
+/* ------------------------------------------------------------ pull */
 
 void pk_stroke_reset(struct pk_stroke *st)
 {
@@ -286,7 +631,65 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->have_pend = false;
     st->have_out = false;
     st->emit_n = 0;
-    st->ncand = 0;
+    st->nq = 0;
+    st->nv = 0;
+    st->ncorner = 0;
+    st->have_cand = false;
+}
+
+static int pull_off(struct pk_stroke *st, pk_um_t out[PK_AXES])
+{
+    if (st->have_out) {
+        st->have_out = false;
+        memcpy(out, st->out, sizeof st->out);
+        st->out_sharp = true;
+        return PK_OK;
+    }
+    if (st->finishing) {
+        st->open = false;
+        return PK_END;
+    }
+    return PK_NEED_INPUT;
+}
+
+/* The kernel wants input: feed it what the policy has queued. Returns
+ * PK_OK if something was pushed (pull again), PK_NEED_INPUT otherwise, or a
+ * kernel error. */
+static int feed_kernel(struct pk_stroke *st)
+{
+    if (st->mode == PK_SMOOTH_TOLERANCE) {
+        if (st->nq == 0 && st->finishing && st->nv > 1)
+            advance_last(st);
+        if (st->nq > 0) {
+            const pk_um_t *p = st->q[st->q_head];
+            int r = pk_refine_push(&st->k, p);
+            if (r == PK_OK) {
+                observe(st, PK_STROKE_EV_CTRL, p);
+                st->q_head = (uint8_t)((st->q_head + 1u) % 4u);
+                st->nq--;
+                return PK_OK;
+            }
+            return r == PK_EBUSY ? PK_NEED_INPUT : r;
+        }
+        if (st->finishing) {
+            pk_refine_finish(&st->k);
+            return PK_OK;
+        }
+        return PK_NEED_INPUT;
+    }
+    if (st->have_pend && !st->split_pending) {
+        int pr = pk_refine_push(&st->k, st->pend);
+        if (pr == PK_OK) {
+            observe(st, PK_STROKE_EV_CTRL, st->pend);
+            st->have_pend = false;
+            if (st->finishing)
+                pk_refine_finish(&st->k);
+            return PK_OK;
+        }
+        if (pr != PK_EBUSY)
+            return pr;
+    }
+    return PK_NEED_INPUT;
 }
 
 int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
@@ -294,24 +697,16 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
     for (;;) {
         if (st->emit_n > 0) {
             memcpy(out, st->emit[0], sizeof st->emit[0]);
+            st->out_sharp = st->emit_sharp[0];
             memmove(st->emit[0], st->emit[1], sizeof st->emit[0]);
+            st->emit_sharp[0] = st->emit_sharp[1];
             st->emit_n--;
             return PK_OK;
         }
         if (!st->open)
             return PK_END;
-        if (st->mode == PK_SMOOTH_OFF) {
-            if (st->have_out) {
-                st->have_out = false;
-                memcpy(out, st->out, sizeof st->out);
-                return PK_OK;
-            }
-            if (st->finishing) {
-                st->open = false;
-                return PK_END;
-            }
-            return PK_NEED_INPUT;
-        }
+        if (st->mode == PK_SMOOTH_OFF)
+            return pull_off(st, out);
         if (st->kernel_end) {
             st->open = false;
             return PK_END;
@@ -319,37 +714,28 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
         struct pk_refine_out o;
         int r = pk_refine_pull(&st->k, &o);
         if (r == PK_OK) {
-            if (st->mode == PK_SMOOTH_TOLERANCE)
-                decimate(st, o.p);
-            else
-                emit(st, o.p);
+            decimate(st, o.p);
             continue;
         }
         if (r == PK_NEED_INPUT) {
-            if (st->have_pend && !st->split_pending) {
-                int pr = pk_refine_push(&st->k, st->pend);
-                if (pr == PK_OK) {
-                    st->have_pend = false;
-                    if (st->finishing)
-                        pk_refine_finish(&st->k);
-                    continue;
-                }
-                if (pr != PK_EBUSY) {
-                    pk_stroke_reset(st);
-                    return pr;
-                }
+            int fr = feed_kernel(st);
+            if (fr == PK_OK)
+                continue;
+            if (fr < 0) {
+                pk_stroke_reset(st);
+                return fr;
             }
-            if (st->finishing)
-                pk_refine_finish(&st->k); /* idempotent safety */
             return PK_NEED_INPUT;
         }
         if (r == PK_END) {
-            if (st->mode == PK_SMOOTH_TOLERANCE && st->ncand > 0) {
-                emit(st, st->cand[st->ncand - 1u]);
-                st->ncand = 0;
+            observe(st, PK_STROKE_EV_END, st->mode == PK_SMOOTH_TOLERANCE ? st->v[0] : st->prev2);
+            if (st->have_cand) {
+                emit_f(st, st->cand, true); /* the stroke's end, or a split vertex */
+                memcpy(st->anchor, st->cand, sizeof st->anchor);
+                st->have_cand = false;
             }
             if (st->split_pending) {
-                /* the stroke ended at the sharp vertex (prev2 now holds it) */
+                /* FIXED: the stroke ended at the sharp vertex (prev2 holds it) */
                 st->split_pending = false;
                 kernel_start(st, st->prev2);
                 int pr = pk_refine_push(&st->k, st->pend);
@@ -358,6 +744,8 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
                     pk_stroke_reset(st);
                     return pr;
                 }
+                if (pr == PK_OK)
+                    observe(st, PK_STROKE_EV_CTRL, st->pend);
                 st->n_in = 2;
                 if (st->finishing && !st->have_pend)
                     pk_refine_finish(&st->k);

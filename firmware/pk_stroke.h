@@ -1,48 +1,30 @@
 /*
- * pk_stroke.h — stroke assembler: consecutive feed moves -> smoothed points.
+ * pk_stroke.h — stroke assembler: consecutive feed moves -> the points of the
+ * path the machine executes (the smoothing policy; the "why" is at the top of
+ * pk_stroke.c).
  *
- * A stroke is a run of feed moves at one feed rate. Its vertices are pushed
- * through the refinement kernel (pk_refine.h) according to the smoothing
- * policy, and the refined points are pulled out one at a time by the machine
- * (only while the motion queue has room: the kernel is pull-based, so a full
- * queue just pauses it).
+ * A stroke is a run of feed moves at one feed rate, from the machine's planned
+ * position. Its vertices go in with pk_stroke_add; the points of the executed
+ * path come out of pk_stroke_pull, one at a time, only while the motion queue
+ * has room (everything is pull-based: a full queue just pauses the stroke).
  *
  *   OFF        vertices pass through unchanged (exact path, G61).
- *   FIXED      kernel with the configured scheme, degree and depth.
- *   TOLERANCE  B-spline (degree 2 or 3), depth chosen per stroke, then a
- *              greedy decimator that merges consecutive refined points into
- *              one segment while every merged point stays within T/2 of it.
- *              Why that keeps the path within T of the limit curve:
- *
- *   Let P be the stroke's control polygon and M = max |P[i-1] - 2P[i] + P[i+1]|
- *   (second differences, µm). Lane-Riesenfeld refinement of degree 2 or 3
- *   divides the second differences by 4 per level (e.g. cubic: the new
- *   differences are D2/4 and (D2[i] + D2[i+1])/8), so the level-k polygon Q
- *   has |D2 Q| <= M / 4^k. Away from the ends the uniform B-spline stays
- *   close to its control polygon: quadratic within |D2 Q|/8 (edge midpoints
- *   lie on the curve, the vertex is |D2 Q|/8 from it), cubic within about
- *   |D2 Q|/6 (a vertex is |D2 Q|/6 from its limit point
- *   (Q[i-1] + 4Q[i] + Q[i+1])/6). Near a clamped end the knots are not uniform
- *   and the constant is larger: tests/test_motion_stroke.c measures up to
- *   0.48 M/4^k there (cubic), which is why the rule uses 1/2:
- *
- *       dist(level-k polygon, limit curve) <= M / (2 * 4^k)
- *
- *   (checked per level, both directions, on several shapes in the tests; a
- *   proof for the clamped ends is not given). The depth is the smallest k
- *   with M / (2 * 4^k) <= T/2, i.e. M <= T * 4^k. The decimator adds at most
- *   T/2: distance to a segment is convex, so if both ends of a polygon edge
- *   are within T/2 of the merged segment, so is the edge, and every point of
- *   the segment is within T/2 of the polygon piece that projects onto it.
- *   Total: within T (plus the kernel's rounding to whole µm, < 1 µm).
- *   M is taken over the moves visible when the stroke starts (the caller's
- *   hint, at least the capacity of depth 2); a later vertex whose second
- *   difference exceeds what the depth covers splits the stroke there, as does
- *   a corner turning by more than sharp_turn_deg (kept sharp). The
- *   decimator holds at most PK_STROKE_DEC points, so a straight run longer
- *   than that is cut into pieces of PK_STROKE_DEC refined points.
- *   (With limit masks for open strokes in the kernel, points on the curve
- *   would tighten this; the kernel on main has them for closed curves only.)
+ *   FIXED      the refinement kernel with the configured scheme, degree and
+ *              depth over the vertices; corners turning by more than
+ *              sharp_turn_deg split the stroke (kept sharp); refined points
+ *              within PK_STROKE_FIXED_DEC_UM of a chord are merged. No
+ *              promise about the distance to the programmed path.
+ *   TOLERANCE  G64 P<T>: the executed path stays within T of the programmed
+ *              polyline (plus the kernel's rounding, 2 µm, inside T) and, at
+ *              chord vertices of flattened curves, within T of the curve. A
+ *              control polygon is built on the programmed path: each corner
+ *              gets a blend whose size follows from T and the corner's angle
+ *              (a long straight leg stays straight; only a neighbourhood of
+ *              the corner is blended), the Chaikin kernel (quadratic B-spline,
+ *              clamped ends) refines it, and a decimator keeps the fewest
+ *              points within T/4 of the refined polygon. Decisions depend on
+ *              the vertices only (two vertices of look-ahead), never on when
+ *              they arrive.
  *
  * Calling context: MAIN only. No heap; the kernel state lives inside.
  */
@@ -52,49 +34,106 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include "pk_refine.h"
+#include "pk_planner.h"
 
-/** Limit points the decimator may hold back (bounds its latency and work). */
-#ifndef PK_STROKE_DEC
-#define PK_STROKE_DEC 64
+/** Refinement depth of the tolerance mode (smoothness of the blends only: any
+ *  depth keeps the tolerance; 3 puts the polygon within E/64 of its curve). */
+#ifndef PK_STROKE_TOL_DEPTH
+#define PK_STROKE_TOL_DEPTH 3
 #endif
+#if PK_STROKE_TOL_DEPTH < 1 || PK_STROKE_TOL_DEPTH > PK_MAX_DEPTH
+#error "PK_STROKE_TOL_DEPTH must be 1..PK_MAX_DEPTH"
+#endif
+
+/** FIXED mode: refined points within this many µm of a chord through their
+ *  neighbours are merged into it (nearly collinear points make blocks of a
+ *  few steps, whose step-rounded directions would only slow the machine). */
+#define PK_STROKE_FIXED_DEC_UM 2
+
+/** Rounding allowance inside the tolerance, µm: control points and kernel
+ *  outputs are whole micrometres (each within sqrt(3)/2 µm of exact). */
+#define PK_STROKE_ROUND_UM 2
 
 /* Smoothing policy type, shared with pk_motion.h. */
 struct pk_smooth_cfg;
+
+/** Observer events (pk_stroke.observe): what the stroke hands to the kernel,
+ *  for tools that draw or measure the smoothed curve. */
+enum pk_stroke_event {
+    PK_STROKE_EV_BEGIN = 0, /**< a kernel stroke starts; p = its first control point */
+    PK_STROKE_EV_CTRL = 1,  /**< next control point pushed into the kernel */
+    PK_STROKE_EV_END = 2    /**< the kernel stroke ended (p = its last control point) */
+};
+/** Observer callback (MAIN, called synchronously; must not call back into the
+ *  machine). The scheme of the stroke is in pk_stroke.k.cfg. */
+typedef void (*pk_stroke_observer)(void *ctx, uint8_t event, const pk_um_t p[PK_AXES]);
 
 struct pk_stroke {
     struct pk_refine k;        /**< the kernel stream */
     uint8_t mode;              /**< enum pk_smooth_mode */
     uint8_t scheme, degree, fixed_depth;
-    pk_um_t tol_um;
-    pk_q30_t cos_sharp;        /**< split when cos(turn) < this (Q1.30) */
-    uint8_t depth;             /**< depth of the current stroke */
+    uint8_t axes;              /**< axes compared and smoothed (2..PK_AXES) */
+    pk_um_t tol_um;            /**< TOLERANCE: T */
+    pk_q30_t cos_sharp;        /**< a corner with cos(turn) below this stays sharp (Q1.30) */
     bool open;                 /**< a stroke is in progress */
     bool finishing;            /**< finish requested, draining */
-    bool split_pending;        /**< restart at prev[] with pend[] once drained */
+    bool kernel_end;           /**< the kernel said PK_END: flushing */
+    pk_um_t prev[PK_AXES];     /**< last vertex accepted */
+
+    /* ---- OFF / FIXED ---- */
+    bool split_pending;        /**< FIXED: restart at prev2 with pend[] once drained */
     bool have_pend;            /**< pend[] waits to be pushed */
-    bool have_out;             /**< OFF mode: out[] waits to be pulled */
-    uint32_t n_in;             /**< vertices of the current stroke */
-    uint64_t d2_cap;           /**< TOLERANCE: largest |second difference|^2 the depth covers */
-    pk_um_t prev2[PK_AXES], prev[PK_AXES]; /**< last two vertices */
-    pk_um_t pend[PK_AXES];     /**< vertex not yet accepted by the kernel */
-    pk_um_t out[PK_AXES];      /**< OFF mode pass-through slot */
-    /* decimator (TOLERANCE) */
-    bool have_anchor;
+    bool have_out;             /**< OFF: out[] waits to be pulled */
+    uint32_t n_in;             /**< FIXED: vertices of the current kernel stroke */
+    pk_um_t prev2[PK_AXES];
+    pk_um_t pend[PK_AXES];
+    pk_um_t out[PK_AXES];
+
+    /* ---- TOLERANCE: vertex look-ahead ---- */
+    uint8_t nv;                /**< vertices held (1..3): v[0] is emitted up to itself */
+    pk_um_t v[3][PK_AXES];
+    pk_um_t err_in[3];         /**< chord error of the move arriving at v[i] */
+    uint32_t cap[3];           /**< blend half-length capacity at v[i], µm (see pk_stroke.c) */
+    uint8_t nq, q_head;        /**< control points queued for the kernel */
+    pk_um_t q[4][PK_AXES];
+    uint8_t ncorner;           /**< vertices kept sharp, not yet out of the kernel */
+    pk_um_t corner[3][PK_AXES];
+
+    /* ---- cone decimator (XY; a change of Z ends a chord) ---- */
+    bool have_anchor, have_cand, cone_full, cone_empty;
     pk_um_t anchor[PK_AXES];
-    uint8_t ncand;
-    pk_um_t cand[PK_STROKE_DEC][PK_AXES];
+    pk_um_t cand[PK_AXES];     /**< the chord's current far end */
+    uint32_t cand_r_q8;        /**< |cand - anchor|, µm Q8 */
+    int32_t cone_r[2], cone_l[2]; /**< right/left boundary directions, Q1.30 */
     uint8_t emit_n;            /**< points ready to return (0..2) */
     pk_um_t emit[2][PK_AXES];
-    bool kernel_end;           /**< the kernel said PK_END, decimator flushing */
+    uint8_t emit_sharp[2];     /**< ... and whether each is a corner */
+    bool out_sharp;            /**< the point pk_stroke_pull returned last is a corner
+                                    of the executed path (a vertex kept sharp, a
+                                    stroke's end, every vertex in OFF mode): the
+                                    junction there is a programmed corner */
+
+    struct pk_planner_dyn dyn; /**< TOLERANCE: the planner's junction model, to keep
+                                    a corner sharp where its kink is faster than
+                                    its blend (never slower than G61) */
+    pk_stroke_observer observe; /**< NULL, or called for every control point */
+    void *observe_ctx;
 };
 
 /**
  * Initialise with a smoothing policy (validated by the caller: see
- * pk_stroke_check). No stroke open.
+ * pk_stroke_check) for `axes` axes (2..PK_AXES). No stroke open.
  */
-void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s);
+void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t axes);
 
-/** Validate a smoothing policy. @return 0 if valid, -1 otherwise. */
+/** The planner's junction model (pk_planner_dyn), so that the tolerance mode
+ *  blends a corner only where the blend is faster than the kink the exact
+ *  path would take there. Zeroed by init (then every corner is blended). */
+void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d);
+
+/** Validate a smoothing policy (and that this build's kernel can run it).
+ *  @return 0 if valid, -1 if a value is out of range, -2 if the scheme is
+ *  not built into this firmware (see pk_refine.h). */
 int pk_stroke_check(const struct pk_smooth_cfg *s);
 
 /** Replace the policy; only when no stroke is open. @return 0, or -1 if open. */
@@ -105,20 +144,19 @@ bool pk_stroke_is_open(const struct pk_stroke *st);
 
 /**
  * Open a stroke at start (the machine's planned position).
- * @param d2_hint  TOLERANCE: the largest |second difference| (µm) among the
- *                 stroke's vertices the caller can see now (0 if unknown)
  * @return 0, or -1 if a stroke is already open.
  */
-int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES], uint32_t d2_hint);
+int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES]);
 
 /**
- * Add the next vertex.
- * @retval PK_OK     accepted (possibly held for a split: the stroke ends at
- *                   the previous vertex and a new one starts there)
- * @retval PK_EBUSY  the previous vertex is still waiting: pull first
+ * Add the next vertex, reached by a move whose programmed geometry is within
+ * chord_err_um of the straight segment (0 for a programmed line; the chord
+ * error of a flattened arc or Bézier otherwise).
+ * @retval PK_OK     accepted (a zero-length move is accepted and ignored)
+ * @retval PK_EBUSY  the look-ahead is full: pull first
  * @retval PK_ESTATE no stroke open, or it is finishing
  */
-int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES]);
+int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_err_um);
 
 /** End the current stroke (idempotent). */
 void pk_stroke_finish(struct pk_stroke *st);
@@ -135,9 +173,9 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES]);
 /** Drop the stroke (reset). */
 void pk_stroke_reset(struct pk_stroke *st);
 
-/** TOLERANCE: depth used for a second-difference bound M (µm) and tolerance
- *  T (µm): smallest k with M / (2 * 4^k) <= T/2, capped at PK_MAX_DEPTH.
- *  Exposed for tests. */
-uint8_t pk_stroke_depth_for(uint32_t m_um, pk_um_t tol_um);
+/** TOLERANCE: the blend budget E (µm) at a vertex whose adjacent moves spent
+ *  chord_err_um: T - T/4 (decimator) - PK_STROKE_ROUND_UM - chord_err_um,
+ *  at least 0 (0: the vertex stays sharp). Exposed for tests. */
+int32_t pk_stroke_blend_budget(pk_um_t tol_um, pk_um_t chord_err_um);
 
 #endif

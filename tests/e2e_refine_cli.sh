@@ -35,8 +35,9 @@ out=$(printf '0 0\n10 0\n10 10\n\n20 0\n30 0\n' | $P refine --depth 1)
 check "a blank line separates strokes, in the input and in the output" \
   '[[ $(printf "%s\n" "$out" | grep -c "^$") -eq 1 && $(printf "%s\n" "$out" | tail -n 2 | tr "\n" " ") == "20.000 0.000 30.000 0.000 " ]]'
 
-# --raw against an exact shared vector, through the CLI, with the stated bound.
-v=../shared/vectors/cases/bspline3_open_clamped_m7_d3.txt
+# --raw against an exact reference vector, through the CLI, with the stated bound.
+v=tests/vectors/exact/bspline3_open_clamped_m7_d3.txt
+check "the exact reference vector for the --raw check is in the repository" '[[ -f $v ]]'
 if [[ -f $v ]]; then
   sed -n '/^input/,/^output/p' "$v" | sed '1d;$d' | $P refine --raw --scheme bspline:3 --depth 3 >"$tmp/raw"
   /usr/bin/python3 - "$v" "$tmp/raw" <<'PY' && r=0 || r=1

@@ -5,13 +5,6 @@
 set -uo pipefail
 BUILD=${1:-build}; SAN=${2:-build/san}
 export PLOTKIN_BUILD=$BUILD PLOTKIN_SAN=$SAN
-# The exact reference vectors live in shared/, beside the project root. From a
-# git worktree elsewhere, find them beside the main checkout instead.
-if [[ -z ${PLOTKIN_VECTORS:-} && ! -d ../shared/vectors/cases ]]; then
-  common=$(git rev-parse --git-common-dir 2>/dev/null) &&
-    [[ -d $common/../../shared/vectors/cases ]] &&
-    export PLOTKIN_VECTORS=$(cd "$common/../../shared/vectors/cases" && pwd)
-fi
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 tp=0; tf=0; bad=()

@@ -324,6 +324,7 @@ static void a_reset_after_a_completed_hold_loses_no_position(void)
     setup();
     pk_um_t p[PK_AXES] = { 100000, 0 };
     TH_ASSERT_EQ(pk_machine_move(&M, p, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK);
     for (int i = 0; i < 5000; i++) {          /* 0.1 s of motion */
         pk_machine_poll(&M);
         pk_rec_advance(&R, R.now + 20);
@@ -339,6 +340,7 @@ static void a_reset_after_a_completed_hold_loses_no_position(void)
     TH_ASSERT_EQ(pk_machine_state(&M), PK_STATE_IDLE);
 
     TH_ASSERT_EQ(pk_machine_move(&M, p, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK);
     for (int i = 0; i < 5000; i++) {
         pk_machine_poll(&M);
         pk_rec_advance(&R, R.now + 20);

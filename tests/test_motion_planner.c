@@ -60,6 +60,25 @@ static void test_micrometres_round_to_the_nearest_step_like_a_double_reference(v
     TH_EXPECT_EQ(bad, 0);
 }
 
+/* One random move (or, rarely, a dwell) at 80 steps/mm, planned in steps. */
+static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES])
+{
+    pk_steps_t st[PK_AXES] = { 0 };
+    int64_t dq[PK_AXES] = { 0 };
+    int mag = (xr() % 3 == 0) ? 20000 : 500;
+    d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
+    d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
+    for (int i = 0; i < 2; i++) {
+        st[i] = (pk_steps_t)(d[i] * 80 / 1000);
+        dq[i] = (int64_t)st[i] * 1000 * 256 / 80;
+    }
+    if (xr() % 17 == 0)
+        (void)pk_planner_add_stop(p, q, PK_BLK_DWELL, 0, 0, 0);
+    else
+        (void)pk_planner_add_line(p, q, dq, st, d, (pk_um_min_t)(60u * (1000u + xr() % 120000u)),
+                                  (uint8_t)(xr() % 2u ? PK_PLAN_SHARP : 0u));
+}
+
 /* Every planned block: exit <= nominal, exit <= next entry ceiling (junction),
  * exit reachable from entry within the length (accelerating) and the entry
  * reachable backwards (decelerating), newest exit 0. Checked in doubles. */
@@ -70,11 +89,12 @@ static void test_replanned_speeds_respect_every_constraint_on_random_polylines(v
     struct pk_planner_limits lim;
     memset(&lim, 0, sizeof lim);
     lim.axes = 2;
-    lim.max_rate[0] = 100000;
-    lim.max_rate[1] = 70000;
+    lim.max_rate[0] = 6000000;   /* µm/min */
+    lim.max_rate[1] = 4200000;
     lim.accel[0] = 1000000;
     lim.accel[1] = 500000;
     lim.junction_dev_um = 20;
+    lim.accel_min = 500000;
     unsigned bad = 0, blocks = 0, stops_ok = 0;
     for (int run = 0; run < 200; run++) {
         pk_mq_init(&q);
@@ -83,21 +103,12 @@ static void test_replanned_speeds_respect_every_constraint_on_random_polylines(v
         int n = 2 + (int)(xr() % (PK_MQ_CAP - 2));
         for (int k = 0; k < n; k++) {
             int32_t d[PK_AXES] = { 0 };
-            pk_steps_t st[PK_AXES] = { 0 };
-            int mag = (xr() % 3 == 0) ? 20000 : 500;
-            d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
-            d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
-            st[0] = (pk_steps_t)(d[0] * 80 / 1000);
-            st[1] = (pk_steps_t)(d[1] * 80 / 1000);
-            if (xr() % 17 == 0)
-                (void)pk_planner_add_stop(&p, &q, PK_BLK_DWELL, 0, 0, 0);
-            else
-                (void)pk_planner_add_line(&p, &q, d, st, (pk_um_s_t)(1000 + xr() % 120000));
+            add_random(&p, &q, d);
             pos[0] += d[0];
             pos[1] += d[1];
         }
         pk_v2_q4_t v2_now = 0;
-        pk_planner_replan(&p, &q, v2_now, pk_mq_count(&q) ? pk_mq_at(&q, 0)->len_q8 : 0);
+        pk_planner_replan(&p, &q, v2_now, pk_mq_count(&q) ? pk_mq_at(&q, 0)->len_q8 : 0, false);
         double entry = 0;
         uint32_t cnt = pk_mq_count(&q);
         for (uint32_t k = 0; k < cnt; k++) {
@@ -125,6 +136,76 @@ static void test_replanned_speeds_respect_every_constraint_on_random_polylines(v
     TH_EXPECT(blocks > 1000);
 }
 
+/* The plan the step generator may execute must be the plan it would have
+ * had with the whole program in view: exits marked final never change when
+ * more blocks are appended. */
+static void test_a_final_plan_never_changes_when_blocks_are_appended(void)
+{
+    static struct pk_mq q;
+    static struct pk_planner p;
+    struct pk_planner_limits lim;
+    memset(&lim, 0, sizeof lim);
+    lim.axes = 2;
+    lim.max_rate[0] = lim.max_rate[1] = 6000000;
+    lim.accel[0] = lim.accel[1] = 1000000;
+    lim.junction_dev_um = 10;
+    lim.accel_min = 1000000;
+    unsigned checked = 0, bad = 0, some_final = 0, all_when_known = 0;
+    for (int run = 0; run < 400; run++) {
+        pk_mq_init(&q);
+        pk_planner_init(&p, &lim);
+        int n = 1 + (int)(xr() % (PK_MQ_CAP / 2));
+        int32_t d[PK_AXES];
+        while (pk_mq_count(&q) < (uint32_t)n)
+            add_random(&p, &q, d);
+        uint32_t rem = pk_mq_at(&q, 0)->len_q8;
+        pk_planner_replan(&p, &q, 0, rem, true);
+        all_when_known += pk_planner_final(&p) == pk_mq_count(&q);
+        pk_planner_replan(&p, &q, 0, rem, false);
+        uint32_t f = pk_planner_final(&p);
+        some_final += f > 0;
+        pk_v2_q4_t ex[PK_MQ_CAP];
+        for (uint32_t k = 0; k < f; k++)
+            ex[k] = pk_mq_at(&q, k)->v2_exit;
+        while (pk_mq_room(&q) > 0) {
+            add_random(&p, &q, d);
+            pk_planner_replan(&p, &q, 0, rem, false);
+            for (uint32_t k = 0; k < f; k++, checked++)
+                bad += pk_mq_at(&q, k)->v2_exit != ex[k];
+            TH_EXPECT(pk_planner_final(&p) >= f);
+        }
+    }
+    TH_EXPECT_EQ(bad, 0);
+    TH_EXPECT(checked > 1000);
+    TH_EXPECT(some_final > 100);       /* finality is not vacuous */
+    TH_EXPECT_EQ(all_when_known, 400); /* a known end makes every plan final */
+}
+
+/* A polygon with chords c on a circle of radius R turns by c/R per vertex:
+ * the curvature limit is v^2 = a R for the worst-placed axis (the axis whose
+ * velocity changes most at that vertex), independent of c. */
+static void test_the_curvature_limit_is_a_times_the_radius(void)
+{
+    struct pk_planner_limits lim;
+    memset(&lim, 0, sizeof lim);
+    lim.axes = 2;
+    lim.accel[0] = lim.accel[1] = 1000000;  /* 1000 mm/s^2 */
+    const double R = 10000.0;              /* 10 mm, in µm */
+    for (double c = 50; c <= 2000; c *= 2) {
+        double th = c / R;                 /* turn per vertex (chord ~ arc) */
+        /* a vertex on the x axis of the circle: velocity turns about +y */
+        pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
+        u1[0] = (pk_q30_t)lround(sin(th / 2) * PK_Q30_ONE);
+        u1[1] = (pk_q30_t)lround(cos(th / 2) * PK_Q30_ONE);
+        u2[0] = -u1[0];
+        u2[1] = u1[1];
+        uint32_t l = (uint32_t)lround(2 * R * sin(th / 2) * 256);
+        double v2 = (double)pk_planner_curvature_v2(u1, u2, 2, l, l, lim.accel[0]) / 16.0;
+        double expect = 1000000.0 * (2 * R * sin(th / 2)) / (2 * sin(th / 2));  /* a * R */
+        TH_EXPECT(fabs(v2 / expect - 1.0) < 0.01);
+    }
+}
+
 static void test_a_straight_continuation_is_not_slowed_by_the_junction(void)
 {
     pk_q30_t u[PK_AXES] = { 0 };
@@ -143,6 +224,8 @@ int th_main(int argc, char **argv)
         TH_CASE(test_isqrt64_is_the_exact_floor_everywhere),
         TH_CASE(test_micrometres_round_to_the_nearest_step_like_a_double_reference),
         TH_CASE(test_replanned_speeds_respect_every_constraint_on_random_polylines),
+        TH_CASE(test_a_final_plan_never_changes_when_blocks_are_appended),
+        TH_CASE(test_the_curvature_limit_is_a_times_the_radius),
         TH_CASE(test_a_straight_continuation_is_not_slowed_by_the_junction),
     };
     return th_run(cases, TH_COUNT(cases));

@@ -528,6 +528,7 @@ static void test_hold_reports_holding_then_hold_and_keeps_the_position(void)
     setup(&M, &R, &c, TICK_HZ);
     pk_um_t tgt[PK_AXES] = { 80000, 0 };
     TH_ASSERT_EQ(pk_machine_move(&M, tgt, 6000000, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK); /* nothing follows: run at once */
     for (int k = 0; k < 5000; k++) { /* 0.1 s */
         pk_machine_poll(&M);
         pk_rec_advance(&R, R.now + 20);
@@ -564,6 +565,7 @@ static void test_reset_mid_move_reports_the_interruption_and_keeps_the_real_posi
     setup(&M, &R, &c, TICK_HZ);
     pk_um_t tgt[PK_AXES] = { 40000, 10000 };
     TH_ASSERT_EQ(pk_machine_move(&M, tgt, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK);
     for (int k = 0; k < 5000; k++) {
         pk_machine_poll(&M);
         pk_rec_advance(&R, R.now + 20);
@@ -618,6 +620,7 @@ static void test_new_settings_keep_the_step_position(void)
     /* refused while moving, and for a bad value, without side effects */
     pk_um_t far[PK_AXES] = { 50000, 0 };
     TH_ASSERT_EQ(pk_machine_move(&M, far, 3000000, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK);
     pk_machine_poll(&M);
     struct pk_motion_cfg c2 = c;
     c2.steps_per_mm_q16[0] = spmm(160.0);

@@ -113,27 +113,31 @@ static void kernel_run(unsigned D, unsigned k, struct poly *out)
         add(out, o.p[0], o.p[1]);
 }
 
-/* The stroke assembler over IN with policy s -> OUT (with the start point). */
-static void stroke_run(const struct pk_smooth_cfg *s, uint32_t hint)
+/* The stroke assembler over IN with policy s -> OUT (with the start point).
+ * chord_err: what each move declares it spent (pk_stroke_add). batch: add
+ * vertices until the stroke says EBUSY before pulling (a fast sender), else
+ * pull after every vertex (a slow one). */
+static void stroke_run_ex(const struct pk_smooth_cfg *s, pk_um_t chord_err, int batch)
 {
     static struct pk_stroke st;
-    pk_stroke_init(&st, s);
+    pk_stroke_init(&st, s, 2);
     pk_um_t p[PK_AXES] = { 0 }, o[PK_AXES];
     p[0] = (pk_um_t)IN.p[0][0];
     p[1] = (pk_um_t)IN.p[0][1];
     OUT.n = 0;
     add(&OUT, p[0], p[1]);
-    TH_ASSERT_EQ(pk_stroke_begin(&st, p, hint), 0);
+    TH_ASSERT_EQ(pk_stroke_begin(&st, p), 0);
     for (size_t i = 1; i < IN.n; i++) {
         p[0] = (pk_um_t)IN.p[i][0];
         p[1] = (pk_um_t)IN.p[i][1];
         int r;
-        while ((r = pk_stroke_add(&st, p)) == PK_EBUSY)
+        while ((r = pk_stroke_add(&st, p, chord_err)) == PK_EBUSY)
             while (pk_stroke_pull(&st, o) == PK_OK)
                 add(&OUT, o[0], o[1]);
         TH_ASSERT_EQ(r, PK_OK);
-        while (pk_stroke_pull(&st, o) == PK_OK)
-            add(&OUT, o[0], o[1]);
+        if (!batch)
+            while (pk_stroke_pull(&st, o) == PK_OK)
+                add(&OUT, o[0], o[1]);
     }
     pk_stroke_finish(&st);
     int r;
@@ -142,6 +146,8 @@ static void stroke_run(const struct pk_smooth_cfg *s, uint32_t hint)
     TH_EXPECT_EQ(r, PK_END);
     TH_EXPECT(!pk_stroke_is_open(&st));
 }
+
+static void stroke_run(const struct pk_smooth_cfg *s) { stroke_run_ex(s, 0, 0); }
 
 static void make_circle(unsigned n, double r)
 {
@@ -215,55 +221,221 @@ static void test_level_k_polygon_is_within_the_stated_bound_of_the_curve(void)
     }
 }
 
-static void test_tolerance_mode_keeps_the_path_within_T_of_the_limit_curve(void)
+/* Largest distance from the polyline OUT (its vertices and, sampled every
+ * 0.25 µm, its edges) to the polyline IN: brute force over every segment of
+ * IN, an oracle independent of the code under test. */
+static double dev_out_from_in(void)
 {
-    static const pk_um_t tols[] = { 10, 50, 200 };
-    for (int shape = 0; shape < 2; shape++) {
-        if (shape == 0)
-            make_circle(200, 20000);
-        else
-            make_wave(120, 80000, 6000, 3);
-        kernel_run(3, 8, &REF);
-        for (unsigned t = 0; t < TH_COUNT(tols); t++) {
-            struct pk_smooth_cfg s;
-            memset(&s, 0, sizeof s);
-            s.mode = PK_SMOOTH_TOLERANCE;
-            s.tolerance_um = tols[t];
-            s.sharp_turn_deg = 60;
-            stroke_run(&s, max_d2());
-            double d = hausdorff(&OUT, &REF);
-            TH_EXPECT(d <= tols[t] + ROUND_UM);
-            if (d > tols[t] + ROUND_UM) {
-                th_print("  shape/tol/d*1000 ");
-                th_print_i64(shape);
-                th_print(" ");
-                th_print_i64(tols[t]);
-                th_print(" ");
-                th_print_i64((int64_t)(d * 1000));
-                th_print("\n");
+    double worst = 0;
+    size_t j0 = 0;   /* where the last sample was nearest: search outwards from there */
+    for (size_t i = 0; i + 1 < OUT.n; i++) {
+        double L = hypot(OUT.p[i + 1][0] - OUT.p[i][0], OUT.p[i + 1][1] - OUT.p[i][1]);
+        unsigned ns = (unsigned)fmin(4000.0, ceil(L * 4) + 1);
+        for (unsigned k = 0; k <= ns; k++) {
+            double t = (double)k / ns;
+            double q[2] = { OUT.p[i][0] + t * (OUT.p[i + 1][0] - OUT.p[i][0]),
+                            OUT.p[i][1] + t * (OUT.p[i + 1][1] - OUT.p[i][1]) };
+            double best = 1e300;
+            size_t nseg = IN.n > 1 ? IN.n - 1 : 0, c = j0 < nseg ? j0 : 0;
+            for (size_t dd = 0; dd < nseg && best > worst; dd++) {
+                /* c, c+1, c-1, c+2, c-2, ...: every segment once, nearest first */
+                for (int side = 0; side < 2; side++) {
+                    if (dd == 0 && side == 1)
+                        break;
+                    size_t j = side == 0 ? c + dd : c - dd;
+                    if ((side == 0 && j >= nseg) || (side == 1 && dd > c))
+                        continue;
+                    double dj = seg_dist(IN.p[j], IN.p[j + 1], q);
+                    if (dj < best) {
+                        best = dj;
+                        j0 = j;
+                    }
+                }
             }
-            /* and it ends exactly where the polyline ends */
-            TH_EXPECT(OUT.p[OUT.n - 1][0] == IN.p[IN.n - 1][0]);
-            TH_EXPECT(OUT.p[OUT.n - 1][1] == IN.p[IN.n - 1][1]);
+            if (IN.n == 1)
+                best = hypot(q[0] - IN.p[0][0], q[1] - IN.p[0][1]);
+            if (best > worst)
+                worst = best;
         }
     }
+    return worst;
+}
+
+static void make_zigzag(unsigned n, double leg, double deg)
+{
+    IN.n = 0;
+    double x = 0, y = 0, a = deg * M_PI / 180.0;
+    add(&IN, 0, 0);
+    for (unsigned k = 0; k < n; k++) {
+        x += leg * cos(a);
+        y += (k % 2 ? -1 : 1) * leg * sin(a);
+        add(&IN, lround(x), lround(y));
+    }
+}
+
+static uint32_t lcg = 12345u;
+static double urand(void)
+{
+    lcg = lcg * 1664525u + 1013904223u;
+    return (lcg >> 8) / 16777216.0;
+}
+
+/* The shapes the property runs on: random and adversarial polylines. */
+#define NSHAPES 13
+static const char *make_shape(int k)
+{
+    IN.n = 0;
+    switch (k) {
+    case 0: make_circle(200, 20000); return "200-gon r=20mm";
+    case 1: make_wave(120, 80000, 6000, 3); return "wave";
+    case 2: make_zigzag(6, 150000, 45); return "zig-zag of 150 mm legs, 45 deg";
+    case 3: add(&IN, 10000, 10000); add(&IN, 110000, 10000); add(&IN, 210000, 50000);
+            return "the 21.8 degree case";
+    case 4: add(&IN, 0, 0); add(&IN, 50000, 0); add(&IN, 0, 87);    /* 179.9 deg */
+            add(&IN, 50000, 174); return "179.9 degree reversals";
+    case 5: add(&IN, 0, 0); add(&IN, 30000, 0); add(&IN, 30000, 1000); add(&IN, 0, 1000);
+            add(&IN, 0, 2000); add(&IN, 30000, 2000); return "hairpins 1 mm apart";
+    case 6: for (int i = 0; i <= 3000; i++)   /* 1 µm segments, wobbling */
+                add(&IN, i, (i / 7) % 2);
+            return "1 um segments";
+    case 7: for (int i = 0; i <= 50; i++) add(&IN, 1000.0 * i, 0);
+            for (int i = 1; i <= 50; i++) add(&IN, 50000, 1000.0 * i);
+            return "collinear runs and a corner";
+    case 8: make_circle(1257, 20000); return "dense circle, 0.1 mm chords";
+    case 9: add(&IN, 0, 0); add(&IN, 40000, 0); add(&IN, 40000 + 10000, 10000);
+            add(&IN, 100000, 10000); return "45 degree chamfer";
+    default: {
+        double x = 0, y = 0;
+        add(&IN, 0, 0);
+        unsigned n = 20 + (unsigned)(urand() * 200);
+        double sc = k == 10 ? 200 : k == 11 ? 5000 : 60000;
+        for (unsigned i = 0; i < n; i++) {
+            x += (urand() - 0.5) * sc;
+            y += (urand() - 0.5) * sc;
+            add(&IN, lround(x), lround(y));
+        }
+        return "random walk";
+    }
+    }
+}
+
+/* The promise: within T of the PROGRAMMED polyline, at every point of the
+ * executed polygon, for every shape, tolerance and corner threshold. */
+static void test_tolerance_mode_keeps_the_path_within_T_of_the_programmed_polyline(void)
+{
+    static const pk_um_t tols[] = { 4, 20, 50, 200 };
+    static const uint16_t sharp[] = { 60, 175 };
+    for (int k = 0; k < NSHAPES; k++) {
+        const char *name = make_shape(k);
+        for (unsigned t = 0; t < TH_COUNT(tols); t++)
+            for (unsigned sh = 0; sh < 2; sh++) {
+                struct pk_smooth_cfg s;
+                memset(&s, 0, sizeof s);
+                s.mode = PK_SMOOTH_TOLERANCE;
+                s.tolerance_um = tols[t];
+                s.sharp_turn_deg = sharp[sh];
+                stroke_run(&s);
+                double d = dev_out_from_in();
+                TH_EXPECT(d <= tols[t]);
+                if (d > tols[t]) {
+                    th_print("  ");
+                    th_print(name);
+                    th_print(": tol ");
+                    th_print_i64(tols[t]);
+                    th_print(" dev*1000 ");
+                    th_print_i64((int64_t)(d * 1000));
+                    th_print("\n");
+                }
+                /* it starts and ends exactly where the polyline does */
+                TH_EXPECT(OUT.p[OUT.n - 1][0] == IN.p[IN.n - 1][0]);
+                TH_EXPECT(OUT.p[OUT.n - 1][1] == IN.p[IN.n - 1][1]);
+            }
+    }
+}
+
+/* Corners are rounded by what the tolerance allows, not by the legs: the
+ * 150 mm zig-zag and the 21.8 degree case use most of the budget at their
+ * corners, and far from a corner the path stays on the leg. */
+static void test_blends_are_sized_by_the_tolerance_not_by_the_legs(void)
+{
+    for (int k = 2; k <= 3; k++) {
+        make_shape(k);
+        struct pk_smooth_cfg s;
+        memset(&s, 0, sizeof s);
+        s.mode = PK_SMOOTH_TOLERANCE;
+        s.tolerance_um = 20;
+        s.sharp_turn_deg = 175;
+        stroke_run(&s);
+        double d = dev_out_from_in();
+        TH_EXPECT(d <= 20.0);
+        TH_EXPECT(d >= 5.0);   /* the corner really is blended */
+        /* every executed vertex more than 2 mm from all programmed vertices
+         * lies on a leg (within the 2 µm rounding) */
+        for (size_t i = 0; i < OUT.n; i++) {
+            double near = 1e300, on = 1e300;
+            for (size_t j = 0; j < IN.n; j++)
+                near = fmin(near, hypot(OUT.p[i][0] - IN.p[j][0], OUT.p[i][1] - IN.p[j][1]));
+            for (size_t j = 0; j + 1 < IN.n; j++)
+                on = fmin(on, seg_dist(IN.p[j], IN.p[j + 1], OUT.p[i]));
+            if (near > 2000)
+                TH_EXPECT(on <= 2.0);
+        }
+    }
+}
+
+/* A dense polyline that approximates a curve is smoothed into that curve:
+ * the executed polygon turns less per vertex than the chords do, and needs
+ * fewer segments. */
+static void test_a_dense_polyline_is_smoothed_into_its_curve(void)
+{
+    make_shape(8); /* 0.1 mm chords on r = 20 mm: 5 mrad per vertex */
+    struct pk_smooth_cfg s;
+    memset(&s, 0, sizeof s);
+    s.mode = PK_SMOOTH_TOLERANCE;
+    s.tolerance_um = 20;
+    s.sharp_turn_deg = 60;
+    stroke_run(&s);
+    double in_turn = 0, out_turn = 0;
+    for (size_t i = 1; i + 1 < IN.n; i++) {
+        double a1 = atan2(IN.p[i][1] - IN.p[i - 1][1], IN.p[i][0] - IN.p[i - 1][0]);
+        double a2 = atan2(IN.p[i + 1][1] - IN.p[i][1], IN.p[i + 1][0] - IN.p[i][0]);
+        in_turn = fmax(in_turn, fabs(remainder(a2 - a1, 2 * M_PI)));
+    }
+    /* the output's turn per unit length, against the chords' 1/R */
+    double worst_k = 0;
+    for (size_t i = 1; i + 1 < OUT.n; i++) {
+        double a1 = atan2(OUT.p[i][1] - OUT.p[i - 1][1], OUT.p[i][0] - OUT.p[i - 1][0]);
+        double a2 = atan2(OUT.p[i + 1][1] - OUT.p[i][1], OUT.p[i + 1][0] - OUT.p[i][0]);
+        double tu = fabs(remainder(a2 - a1, 2 * M_PI));
+        double l = 0.5 * (hypot(OUT.p[i][0] - OUT.p[i - 1][0], OUT.p[i][1] - OUT.p[i - 1][1])
+                          + hypot(OUT.p[i + 1][0] - OUT.p[i][0], OUT.p[i + 1][1] - OUT.p[i][1]));
+        out_turn = fmax(out_turn, tu);
+        if (l > 0)
+            worst_k = fmax(worst_k, tu / l);
+    }
+    TH_EXPECT(dev_out_from_in() <= 20.0);
+    TH_EXPECT(OUT.n < IN.n);                 /* fewer segments than chords */
+    /* discrete curvature close to the circle's (1/20000 per µm), never the
+     * chords' kinks: within 25 % (rounding of whole µm included) */
+    TH_EXPECT(worst_k < 1.25 / 20000.0);
+    (void)in_turn;
 }
 
 static void test_a_looser_tolerance_never_needs_more_segments(void)
 {
     make_circle(200, 20000);
     size_t prev = SIZE_MAX;
-    static const pk_um_t tols[] = { 2, 10, 50, 200, 1000 };
+    static const pk_um_t tols[] = { 4, 10, 50, 200, 1000 };
     for (unsigned t = 0; t < TH_COUNT(tols); t++) {
         struct pk_smooth_cfg s;
         memset(&s, 0, sizeof s);
         s.mode = PK_SMOOTH_TOLERANCE;
         s.tolerance_um = tols[t];
-        stroke_run(&s, max_d2());
+        stroke_run(&s);
         TH_EXPECT(OUT.n <= prev);
         prev = OUT.n;
     }
-    TH_EXPECT(prev < 60); /* 1 mm on a 20 mm circle: a few dozen chords */
+    TH_EXPECT(prev < 120); /* 1 mm on a 20 mm circle: few chords */
 }
 
 static void test_straight_stretches_collapse_to_few_segments(void)
@@ -280,14 +452,74 @@ static void test_straight_stretches_collapse_to_few_segments(void)
     memset(&s, 0, sizeof s);
     s.mode = PK_SMOOTH_TOLERANCE;
     s.tolerance_um = 10;
-    stroke_run(&s, max_d2());
+    stroke_run(&s);
     size_t straight = 0;
     for (size_t i = 1; i < OUT.n; i++)
         straight += OUT.p[i][0] < 45000 && OUT.p[i][1] == 0;
-    /* 400 refined points on the line: one segment per PK_STROKE_DEC at most */
-    TH_EXPECT(straight <= 400 / PK_STROKE_DEC + 1);
-    kernel_run(3, 8, &REF);
-    TH_EXPECT(hausdorff(&OUT, &REF) <= 10 + ROUND_UM);
+    TH_EXPECT(straight <= 2);   /* the line is one chord */
+    TH_EXPECT(dev_out_from_in() <= 10.0);
+}
+
+/* The points depend on the program only: a sender that delivers every
+ * vertex at once and one that waits for the stroke after each give the same
+ * executed path (here, at stroke level). */
+static void test_the_smoothed_path_does_not_depend_on_arrival(void)
+{
+    static struct poly A;
+    for (int k = 0; k < NSHAPES; k++) {
+        make_shape(k);
+        struct pk_smooth_cfg s;
+        memset(&s, 0, sizeof s);
+        s.mode = PK_SMOOTH_TOLERANCE;
+        s.tolerance_um = 20;
+        s.sharp_turn_deg = 120;
+        stroke_run_ex(&s, 0, 1);
+        A = OUT;
+        stroke_run_ex(&s, 0, 0);
+        TH_ASSERT_EQ(A.n, OUT.n);
+        TH_EXPECT(memcmp(A.p, OUT.p, A.n * sizeof A.p[0]) == 0);
+    }
+}
+
+/* Chords of a flattened curve declare their error: the path then stays
+ * within T of the curve itself, not only of the chords. */
+static void test_chord_vertices_keep_the_path_within_T_of_the_curve(void)
+{
+    const double R = 20000, T = 20;
+    for (unsigned t = 0; t < 3; t++) {
+        double e = (double)(2 + 4 * t);              /* chord error 2, 6, 10 µm */
+        double c = 2 * sqrt(2 * R * e - e * e);      /* chord with sagitta e */
+        unsigned n = (unsigned)ceil(2 * M_PI * R / c);
+        IN.n = 0;
+        for (unsigned k = 0; k <= n / 2; k++) {
+            double a = M_PI * 2 * k / n;
+            add(&IN, lround(R * cos(a)), lround(R * sin(a)));
+        }
+        struct pk_smooth_cfg s;
+        memset(&s, 0, sizeof s);
+        s.mode = PK_SMOOTH_TOLERANCE;
+        s.tolerance_um = (pk_um_t)T;
+        s.sharp_turn_deg = 60;
+        stroke_run_ex(&s, (pk_um_t)ceil(e + 0.5), 0);  /* + rounding of the vertices */
+        double worst = 0;
+        for (size_t i = 0; i + 1 < OUT.n; i++)
+            for (unsigned k = 0; k <= 64; k++) {
+                double x = OUT.p[i][0] + (OUT.p[i + 1][0] - OUT.p[i][0]) * k / 64.0;
+                double y = OUT.p[i][1] + (OUT.p[i + 1][1] - OUT.p[i][1]) * k / 64.0;
+                double ang = atan2(y, x);
+                double dd = ang >= -1e-9 && ang <= M_PI + 1e-9 ? fabs(hypot(x, y) - R)
+                            : fmin(hypot(x - R, y), hypot(x + R, y));
+                worst = fmax(worst, dd);
+            }
+        TH_EXPECT(worst <= T);
+        if (worst > T) {
+            th_print("  chord error ");
+            th_print_i64((int64_t)e);
+            th_print(": dev*1000 ");
+            th_print_i64((int64_t)(worst * 1000));
+            th_print("\n");
+        }
+    }
 }
 
 static void test_sharp_corners_are_kept_exactly(void)
@@ -308,7 +540,7 @@ static void test_sharp_corners_are_kept_exactly(void)
         s.depth = 4;
         s.tolerance_um = 10;
         s.sharp_turn_deg = 60;
-        stroke_run(&s, max_d2());
+        stroke_run(&s);
         for (unsigned k = 0; k < TH_COUNT(sq); k++) {
             int found = 0;
             for (size_t i = 0; i < OUT.n; i++)
@@ -327,7 +559,7 @@ static void test_sharp_corners_are_kept_exactly(void)
     s.degree = 3;
     s.depth = 4;
     s.sharp_turn_deg = 180;
-    stroke_run(&s, 0);
+    stroke_run(&s);
     int found = 0;
     for (size_t i = 0; i < OUT.n; i++)
         found |= OUT.p[i][0] == 10000 && OUT.p[i][1] == 10000;
@@ -447,6 +679,7 @@ static void test_path_speed_on_arcs_and_smoothed_strokes_never_exceeds_the_feed(
         double w = worst_path_speed_ratio(&R, 50.0, 12.5, 10000); /* F3000 = 50 mm/s, 10 ms */
         TH_EXPECT(w <= 1.0);
         TH_EXPECT(w > 0.85); /* and it does run at the feed */
+        if (!(w > 0.85)) { th_print("  mode "); th_print_i64(mi); th_print_i64((int64_t)(w * 1000)); th_print("\n"); }
     }
 }
 
@@ -474,9 +707,11 @@ static void test_a_stroke_whose_sender_stops_midway_still_completes(void)
 
 static void test_a_paused_kernel_behind_a_full_queue_changes_nothing_in_the_output(void)
 {
-    static struct pk_mrun_op ops[400];
+    static struct pk_mrun_op ops[401];
     struct pk_motion_cfg c = mcfg(PK_SMOOTH_TOLERANCE);
     size_t n = circle_ops(ops, 400, 15000, 1.0);
+    memset(&ops[n], 0, sizeof ops[n]);
+    ops[n++].type = MR_END;
     pk_rec_free(&R);
     pk_rec_init(&R, 1000000);
     TH_ASSERT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
@@ -489,11 +724,18 @@ static void test_a_paused_kernel_behind_a_full_queue_changes_nothing_in_the_outp
     struct pk_mrun_result rb = pk_mrun(&M2, &R2, ops, n, &slow);
     TH_ASSERT(!ra.timed_out && !rb.timed_out);
     TH_EXPECT(rb.efull > 50);
-    TH_ASSERT_EQ(R.n, R2.n);
-    size_t diff = 0;
-    for (size_t k = 0; k < R.n; k++) {
-        const struct pk_rec_event *a = &R.ev[k], *b = &R2.ev[k];
-        diff += a->tick != b->tick || a->kind != b->kind || a->mask != b->mask || a->levels != b->levels;
+    /* the same pins at the same times after the first edge: the start waits
+     * for the look-ahead to fill, which takes longer for the slow sender */
+    size_t diff = 0, f1 = 0, f2 = 0;
+    while (f1 < R.n && R.ev[f1].tick == 0)     /* the writes of pk_machine_init */
+        f1++;
+    while (f2 < R2.n && R2.ev[f2].tick == 0)
+        f2++;
+    TH_ASSERT(f1 < R.n && f2 < R2.n && R.n - f1 == R2.n - f2);
+    for (size_t k = 0; f1 + k < R.n; k++) {
+        const struct pk_rec_event *a = &R.ev[f1 + k], *b = &R2.ev[f2 + k];
+        diff += a->tick - R.ev[f1].tick != b->tick - R2.ev[f2].tick || a->kind != b->kind
+                || a->mask != b->mask || a->levels != b->levels;
     }
     TH_EXPECT_EQ(diff, 0);
 }
@@ -504,7 +746,11 @@ int th_main(int argc, char **argv)
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_level_k_polygon_is_within_the_stated_bound_of_the_curve),
-        TH_CASE(test_tolerance_mode_keeps_the_path_within_T_of_the_limit_curve),
+        TH_CASE(test_tolerance_mode_keeps_the_path_within_T_of_the_programmed_polyline),
+        TH_CASE(test_blends_are_sized_by_the_tolerance_not_by_the_legs),
+        TH_CASE(test_a_dense_polyline_is_smoothed_into_its_curve),
+        TH_CASE(test_the_smoothed_path_does_not_depend_on_arrival),
+        TH_CASE(test_chord_vertices_keep_the_path_within_T_of_the_curve),
         TH_CASE(test_a_looser_tolerance_never_needs_more_segments),
         TH_CASE(test_straight_stretches_collapse_to_few_segments),
         TH_CASE(test_sharp_corners_are_kept_exactly),

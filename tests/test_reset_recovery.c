@@ -118,9 +118,10 @@ static void test_a_soft_reset_at_any_moment_leaves_a_recoverable_exact_machine(v
         /* stream the program with the sender's character counting simplified:
          * push as the receive ring has room, the machine running meanwhile */
         seed = seed * 6364136223846793005u + 1442695040888963407u;
-        /* 10 ms .. 2 s of simulated time (mid-stroke), every 4th trial up to
-         * 20 s (the program takes about 14 s: some resets come after the end) */
-        long run_for = 20 + (long)((seed >> 33) % ((trial % 4u) == 3u ? 40000u : 4000u));
+        /* 10 ms .. 2 s of simulated time (mid-stroke), every 4th trial 20 to
+         * 30 s (the program takes about 17.5 s: those resets come after the end) */
+        long run_for = (trial % 4u) == 3u ? 40000 + (long)((seed >> 33) % 20000u)
+                                           : 20 + (long)((seed >> 33) % 4000u);
         int sent = 0;
         for (long s = 0; s < run_for; s++) {
             while (sent < NLINES && pk_uart_rx_space(&S.uart) > strlen(PROG[sent])) {

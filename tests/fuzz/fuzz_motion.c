@@ -38,13 +38,6 @@
 #include <string.h>
 
 #define TICK_HZ 1000000u
-/* FZ_STRICT (make fuzz-findings: 7) drops the allowances made for known
- * findings (tests/fuzz/README.md), so their inputs reproduce them:
- * bit 0 for M1, bit 1 for M2, bit 2 for M3. */
-#ifndef FZ_STRICT
-#define FZ_STRICT 0
-#endif
-static const int fz_strict = FZ_STRICT;
 #define RING 32u
 
 /* ---- the harness's HAL ------------------------------------------------------ */
@@ -112,13 +105,9 @@ static int h_step(void *c, uint32_t mask, uint32_t levels)
                  * edge phase (1 step), whatever the segment lengths inside.
                  * Hence the count minus 2, over the span +-2 ticks. */
                 double rate = (RING - 3u) * (double)TICK_HZ / (span > 2 ? span - 2 : 0.5);
-                /* Finding M3 (tests/fuzz/README.md): with coarse steps/mm an
-                 * axis runs over its max rate even over 32 steps (seen: +26 %
-                 * at 1 step/mm and 10 steps/s, single steps at twice the
-                 * rate). Until fixed, the default build (CI's random runs)
-                 * fails only at twice the max rate, a gross speed bug; the
-                 * strict build (make fuzz-findings) allows nothing. */
-                double allowed = H.max_sps[a] * ((fz_strict & 4) ? 1.0 : 2.0);
+                /* Finding M3 (fixed: the planner plans in steps) once let an
+                 * axis run over its max rate at coarse steps/mm; no allowance. */
+                double allowed = H.max_sps[a];
                 if (rate > allowed) {
                     fprintf(stderr, "axis %u: %.1f steps/s over %u steps, limit %.1f; intervals:", a,
                             rate, RING - 1u, H.max_sps[a]);
@@ -130,11 +119,9 @@ static int h_step(void *c, uint32_t mask, uint32_t levels)
                 FZ_CHECK(rate <= allowed, "axis rate within its max rate");
             }
         }
-        /* A reset lowers the step lines at once, even in the middle of a
-         * pulse (reported: tests/fuzz/README.md, finding M2); only then may a
-         * pulse be shorter than step_pulse_ticks. */
-        int exempt = H.in_reset ? (fz_strict & 2) == 0 : 0;
-        if (was && !is && !exempt)
+        /* Every pulse lasts step_pulse_ticks, also across a reset (finding
+         * M2, fixed: the timer ends a pulse the reset caught). */
+        if (was && !is)
             FZ_CHECK(H.now >= H.rise[a] + H.pulse_ticks, "step pulse lasts step_pulse_ticks");
     }
     H.step_raw = (H.step_raw & ~mask) | (levels & mask);

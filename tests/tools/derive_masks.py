@@ -4,8 +4,8 @@ tangent masks for every subdivision scheme the kernel supports.
 
 Python 3 standard library only (fractions.Fraction for exact arithmetic).
 
-    python3 tests/tools/derive_masks.py --check-shared ../shared/vectors/cases
-        re-implement the refinement rules and check them against the shared
+    python3 tests/tools/derive_masks.py --check-shared tests/vectors/exact
+        re-implement the refinement rules and check them against the reference
         exact vectors (every case must match exactly)
     python3 tests/tools/derive_masks.py --verify
         derive every mask and verify it by brute force: deep exact refinement
