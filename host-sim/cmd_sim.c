@@ -43,7 +43,8 @@ static const char sim_usage[] =
     "\n"
     "Speeds and accelerations are estimated per axis from the decoded step times\n"
     "over runs of 16 steps (cornering shows as acceleration, as on the machine).\n"
-    "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
+    "Soft limits ($20=1, which needs $22=1) keep moves within [-$13x, 0] as Grbl after\n"
+    "homing; without them (the default) any target within +-2097 mm runs.\n"
     "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
     "setup failure; 2 bad usage.\n";
@@ -348,22 +349,16 @@ int cmd_sim(int argc, char **argv)
     if (axes_opt != 0)
         cfg.axes = (unsigned)axes_opt;
 
-    size_t len;
-    char *text = read_all(file, &len);
-    if (text == NULL) {
+    /* The program is streamed (a file of any size runs in bounded memory);
+     * the job detects a polyline file itself. */
+    FILE *pf = strcmp(file, "-") == 0 ? stdin : fopen(file, "rb");
+    if (pf == NULL) {
         fprintf(stderr, "plotkin sim: %s: %s\n", file, strerror(errno ? errno : EIO));
         return 2;
     }
-    int is_poly = 0;
-    char *gcode = pk_sim_polyline_to_gcode(text, cfg.polyline_feed, &is_poly);
-    if (gcode != NULL) {
-        free(text);
-        text = gcode;
-        len = strlen(text);
-    }
 
     static struct pk_sim_result r;
-    struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program = text, .len = len,
+    struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program_file = pf,
                              .lim = lim, .progress = isatty(2) ? stderr : NULL };
     if (use_fault)
         o.fault = &fault;
@@ -372,7 +367,8 @@ int cmd_sim(int argc, char **argv)
         tf = fopen(trace, "w");
         if (tf == NULL) {
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
-            free(text);
+            if (pf != stdin)
+                fclose(pf);
             return 2;
         }
         o.trace_csv = tf;
@@ -407,6 +403,7 @@ int cmd_sim(int argc, char **argv)
     if (tf != NULL)
         fclose(tf);
     pk_sim_result_free(&r);
-    free(text);
+    if (pf != stdin)
+        fclose(pf);
     return status;
 }

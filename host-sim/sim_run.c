@@ -1,6 +1,7 @@
 /*
  * sim_run.c — one complete simulated run (see sim_run.h).
  */
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -120,7 +121,15 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
         r->setup_failed = 1;
         return -1;
     }
-    pk_sim_job_init(&r->job, &r->m, c, o->program, o->len);
+    if (o->program_file != NULL) {
+        if (pk_sim_job_init_file(&r->job, &r->m, c, o->program_file) != 0) {
+            snprintf(r->err, sizeof r->err, "cannot read the program: %s", strerror(errno));
+            r->setup_failed = 1;
+            return -1;
+        }
+    } else {
+        pk_sim_job_init(&r->job, &r->m, c, o->program, o->len);
+    }
     r->job.progress = o->progress;
     r->run_status = -1;
     return 0;

@@ -23,8 +23,10 @@
 struct pk_sim_opts {
     const char *chip;               /**< mock chip name, unique among live runs */
     const struct pk_sim_cfg *cfg;   /**< machine settings */
-    const char *program;            /**< G-code text (see pk_sim_polyline_to_gcode) */
+    const char *program;            /**< G-code text (or a polyline), when program_file is NULL */
     size_t len;
+    FILE *program_file;             /**< if not NULL: the program, streamed from this file in
+                                         bounded memory (sim_job.h); the caller closes it */
     const struct pk_gpiod_mock *fault; /**< fault plan for the chip, or NULL */
     struct pk_timing_limits lim;    /**< driver limits for the checks */
     uint64_t max_ticks;             /**< simulated time limit (0: 24 h) */
