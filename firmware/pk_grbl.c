@@ -206,7 +206,12 @@ static void realtime(struct pk_grbl *g)
     if (take(g, PK_GRBL_RT_STATUS))
         g->status_due = 1;
     int gs = gstate(g);
-    if (take(g, PK_GRBL_RT_HOLD) && gs != GS_ALARM && gs != GS_CHECK && gs != GS_SLEEP) {
+    /* 0x84 safety door: no door input and no way to cut the tool output of a
+     * held queue, so it is a feed hold, and the sender is told so */
+    int door = take(g, PK_GRBL_RT_DOOR);
+    if (door)
+        g->msg_due = MSG_DOOR_HOLD;
+    if ((take(g, PK_GRBL_RT_HOLD) || door) && gs != GS_ALARM && gs != GS_CHECK && gs != GS_SLEEP) {
         if (g->jogging) {
             g->mo.hold(g->m);
             g->jog_cancel = 1;
@@ -227,7 +232,6 @@ static void realtime(struct pk_grbl *g)
         g->mo.hold(g->m);
         g->jog_cancel = 1;
     }
-    (void)take(g, PK_GRBL_RT_DOOR); /* no door input: nothing to act on */
     overrides(g);
 }
 
@@ -279,15 +283,35 @@ static int soft_ok(const struct pk_grbl *g, const pk_um_t t[PK_GC_AXES])
  * $31..$30 onto the smallest..full output, 0 for S0 (Q0.16). */
 static uint16_t spindle_q16(const struct pk_grbl *g, int32_t s_milli)
 {
-    int64_t s = (int64_t)s_milli * g->ovr_spindle / 100;
-    int64_t mx = g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = g->set.v[PK_GRBL_S_SPINDLE_MIN];
-    if (s <= 0)
+    /* 32-bit only (it runs per move in laser mode): s_milli / 100 * 200 and
+     * the remainder term stay below 2^32 for every int32 S */
+    if (s_milli <= 0)
+        return 0;
+    uint32_t ovr = g->ovr_spindle;
+    uint32_t s = (uint32_t)s_milli / 100u * ovr + (uint32_t)s_milli % 100u * ovr / 100u;
+    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX];
+    uint32_t mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    if (s == 0)
         return 0;
     if (mn >= mx || s >= mx)
         return 65535u;
     if (s <= mn)
         return 1u;
-    return (uint16_t)(1 + (s - mn) * 65534 / (mx - mn));
+    /* 1 + floor(x * 65534 / d), x = s - mn < d = mx - mn < 2^31: the long
+     * division gives q = floor(x * 2^16 / d) and its remainder; then
+     * x * 65534 = q * d + rem - 2x takes off 0, 1 or 2 */
+    uint32_t d = mx - mn, x = s - mn, rem = x, q = 0;
+    for (int i = 0; i < 16; i++) {
+        rem <<= 1;
+        q <<= 1;
+        if (rem >= d) {
+            rem -= d;
+            q |= 1u;
+        }
+    }
+    uint32_t twox = 2u * x;
+    q -= rem >= twox ? 0u : rem + d >= twox ? 1u : 2u;
+    return (uint16_t)(1u + q);
 }
 
 static int laser_mode(const struct pk_grbl *g) { return g->set.v[PK_GRBL_S_LASER] != 0; }
@@ -718,6 +742,11 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
     g->mo.position_um(g->m, g->gc.pos_um);
     if (idx == PK_GRBL_S_REPORT_INCHES)
         g->wco_counter = 0;
+    /* stored for the limit inputs; say so where there are none */
+    if (val && !g->mo.home && idx == PK_GRBL_S_HARD_LIMITS)
+        pk_grbl_puts(g, "[MSG:No limit switches: hard limits stored, not active]\r\n");
+    if (val && !g->mo.home && idx == PK_GRBL_S_HOMING)
+        pk_grbl_puts(g, "[MSG:No limit switches: $H cannot run, $X unlocks]\r\n");
     return 0;
 }
 
@@ -1201,6 +1230,9 @@ static void messages(struct pk_grbl *g)
         break;
     case MSG_NO_SPINDLE_STOP:
         pk_grbl_puts(g, "[MSG:Spindle stop override is not supported]\r\n");
+        break;
+    case MSG_DOOR_HOLD:
+        pk_grbl_puts(g, "[MSG:No safety door: feed hold only, the tool stays as it is]\r\n");
         break;
     default:
         break;

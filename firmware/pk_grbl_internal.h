@@ -21,7 +21,7 @@ enum {
 
 /* one-line messages (pk_grbl.msg_due) */
 enum {
-    MSG_NONE = 0, MSG_RESTORING, MSG_NO_SPINDLE_STOP
+    MSG_NONE = 0, MSG_RESTORING, MSG_NO_SPINDLE_STOP, MSG_DOOR_HOLD
 };
 
 /* multi-line reports (pk_grbl.report) */

@@ -233,7 +233,10 @@ void pk_grbl_status_report(struct pk_grbl *g)
         pk_grbl_put_u32(g, g->ovr_rapid);
         pk_grbl_puts(g, ",");
         pk_grbl_put_u32(g, g->ovr_spindle);
-        int sp = g->gc.spindle != PK_GC_SPINDLE_OFF;
+        /* the output, as Grbl reads its pin: in laser mode it is off while
+         * the last value sent (G0, or S0) is 0 */
+        int sp = g->gc.spindle != PK_GC_SPINDLE_OFF &&
+                 !(g->set.v[PK_GRBL_S_LASER] && g->laser_sent <= 0);
         if (sp || g->gc.coolant) {
             pk_grbl_puts(g, "|A:");
             if (sp)

@@ -85,7 +85,7 @@ static void f_resume(void *m) { ((struct fake *)m)->held = 0; }
 static int f_reset(void *m)
 {
     struct fake *f = m;
-    int cut = f->qn > 0;
+    int cut = f->qn > 0 && f->held != 1; /* a completed hold loses nothing */
     f->qn = 0;
     f->held = 0;
     f->resets++;
@@ -758,6 +758,222 @@ static void test_a_machine_fault_raises_alarm_1_and_locks_g_code(void)
     TH_EXPECT_EQ(R.f.logn, 1);
 }
 
+/* Requests of one type in the log, from index `from`. */
+static int log_of(int type, int from, struct req *out, int max)
+{
+    int n = 0;
+    for (int i = from; i < R.f.logn && n < max; i++)
+        if (R.f.log[i].type == type)
+            out[n++] = R.f.log[i];
+    return n;
+}
+
+/* The Q0.16 value for S of full scale smax (no minimum), within 1 LSB of
+ * the exact S / smax * 65535. */
+static int q16_near(int32_t got, double s, double smax)
+{
+    double want = s / smax * 65535.0;
+    return got >= want - 1.0 && got <= want + 1.0;
+}
+
+static void test_spindle_s_scales_to_30_with_the_override_and_stops_the_machine_first(void)
+{
+    rig_init(16);
+    poll_n(2, 0);
+    rxs("$30=2000\nM3 S500\n");
+    poll_n(20, 1);
+    rxs("\x9a"); /* spindle +10 % */
+    poll_n(5, 1);
+    rxs("S1000\nS2000\nS9000\n");
+    poll_n(20, 1);
+    struct req sp[8];
+    int n = log_of(REQ_SPINDLE, 0, sp, 8);
+    TH_ASSERT_EQ(n, 4); /* S9000 gives the same full scale as S2000: nothing sent */
+    TH_EXPECT(q16_near(sp[0].arg, 500, 2000));
+    TH_EXPECT(q16_near(sp[1].arg, 550, 2000));  /* the override applies at once */
+    TH_EXPECT(q16_near(sp[2].arg, 1100, 2000));
+    TH_EXPECT_EQ(sp[3].arg, 65535);             /* beyond $30: clamped, as Grbl */
+    for (int i = 0; i < n; i++)
+        TH_EXPECT_EQ(sp[i].p[0], 1); /* sync: S changes stop the machine (not laser mode) */
+}
+
+static void test_laser_mode_runs_feed_moves_at_s_and_rapids_at_zero_without_stopping(void)
+{
+    rig_init(32);
+    poll_n(2, 0);
+    rxs("$32=1\nM3 S500\nG0 X1\nG1 X2 F100\nG1 X3\nG0 X4\nG1 X5 S250\nG2 X7 I1\nM5\n");
+    poll_n(60, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 9);
+    /* the value each move runs at: the last spindle request before it */
+    int32_t value = 0, at[6] = { -1, -1, -1, -1, -1, -1 };
+    int moves = 0;
+    for (int i = 0; i < R.f.logn; i++) {
+        const struct req *q = &R.f.log[i];
+        if (q->type == REQ_SPINDLE) {
+            TH_EXPECT_EQ(q->p[0], 0); /* never a stop for a power change */
+            value = q->arg;
+        } else if ((q->type == REQ_MOVE || q->type == REQ_RAPID) && moves < 6 &&
+                   (moves == 5 || q->p[0] == (moves + 1) * 1000)) {
+            at[moves++] = value;
+        }
+    }
+    TH_ASSERT_EQ(moves, 6);
+    TH_EXPECT_EQ(at[0], 0);                 /* G0: off */
+    TH_EXPECT(q16_near(at[1], 500, 1000));  /* G1 at S */
+    TH_EXPECT(q16_near(at[2], 500, 1000));
+    TH_EXPECT_EQ(at[3], 0);
+    TH_EXPECT(q16_near(at[4], 250, 1000));  /* a new S rides on the move */
+    TH_EXPECT(q16_near(at[5], 250, 1000));  /* arc chords too */
+    TH_EXPECT_EQ(value, 0);                 /* M5: off */
+}
+
+static void test_realtime_commands_are_flags_a_burst_cannot_lose(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G1 X50 F100\n");
+    poll_n(3, 0);
+    R.outn = 0;
+    R.out[0] = 0;
+    /* 300 status requests then a hold, all before the main loop runs */
+    for (int i = 0; i < 300; i++)
+        rxs("?");
+    rxs("!");
+    poll_n(3, 1);
+    TH_EXPECT_EQ(count(R.out, "<"), 1);     /* repeats before the loop runs count once */
+    R.outn = 0;
+    rxs("?");
+    poll_n(2, 1);
+    TH_EXPECT(strstr(R.out, "<Hold:0|") != NULL);
+    /* 256 resets in one burst: one reset */
+    int before = R.f.resets;
+    for (int i = 0; i < 256; i++)
+        rxs("\x18");
+    poll_n(5, 1);
+    TH_EXPECT_EQ(R.f.resets - before, 1);
+    TH_EXPECT_EQ(count(R.out, "Grbl 1.1h"), 1);
+    TH_EXPECT(strstr(R.out, "ALARM") == NULL); /* the hold had completed */
+}
+
+static void test_settings_offsets_and_lines_survive_a_restart_and_a_bad_store_is_reset(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    TH_EXPECT(strstr(R.out, "[MSG:Restoring defaults]") != NULL); /* erased store */
+    rxs("$100=123.25\nG10 L2 P3 X-4.5\n$N1=G91\n");
+    poll_n(10, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 3);
+    rig_start(8, 1, NULL);                  /* power cycle, same store */
+    poll_n(5, 1);
+    TH_EXPECT(strstr(R.out, "[MSG:Restoring defaults]") == NULL);
+    TH_EXPECT(strstr(R.out, ">G91:ok") != NULL);
+    TH_EXPECT_EQ(R.f.set.v[PK_GRBL_S_STEPS_X], 1232500); /* reached the machine */
+    R.outn = 0;
+    rxs("$#\n");
+    poll_n(10, 1);
+    TH_EXPECT(strstr(R.out, "[G56:-4.500,0.000,0.000]") != NULL);
+    /* one flipped bit in the settings record: its checksum fails */
+    R.nvm_buf[10] ^= 0x04;
+    rig_start(8, 1, NULL);
+    poll_n(5, 1);
+    TH_EXPECT(strstr(R.out, "[MSG:Restoring defaults]") != NULL);
+    TH_EXPECT(R.f.set.v[PK_GRBL_S_STEPS_X] != 1232500);
+}
+
+static void test_m0_and_g4_are_answered_only_when_done(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G1 X10 F100\nG4 P1\n");
+    poll_n(1, 0);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 1);  /* G4 waits for the queue */
+    poll_n(10, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 2);
+    R.outn = 0;
+    R.out[0] = 0;
+    rxs("M0\n");
+    poll_n(10, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 0);  /* paused: Hold:0 until '~' */
+    rxs("?");
+    poll_n(2, 1);
+    TH_EXPECT(strstr(R.out, "<Hold:0|") != NULL);
+    rxs("~");
+    poll_n(3, 1);
+    TH_EXPECT_EQ(count(R.out, "ok\r\n"), 1);
+}
+
+static void test_door_is_a_feed_hold_with_a_message_without_a_door_input(void)
+{
+    rig_init(8);
+    poll_n(2, 0);
+    rxs("G1 X10 F100\n");
+    poll_n(2, 0);
+    rxs("\x84");
+    poll_n(3, 1);
+    TH_EXPECT(R.f.held != 0);
+    TH_EXPECT(strstr(R.out, "[MSG:No safety door: feed hold only") != NULL);
+}
+
+struct obs_log {
+    struct pk_grbl_prim p[16];
+    int n;
+};
+static void obs_fn(void *ctx, const struct pk_grbl_prim *p)
+{
+    struct obs_log *o = ctx;
+    if (o->n < 16)
+        o->p[o->n++] = *p;
+}
+
+static void test_the_observer_sees_each_programmed_primitive_before_flattening(void)
+{
+    static struct obs_log o;
+    memset(&o, 0, sizeof o);
+    rig_init(64);
+    pk_grbl_set_observer(&R.g, obs_fn, &o);
+    poll_n(2, 0);
+    rxs("G92 X-1\nG0 X0 Y0\nM3\nN7 G1 X10 F600\nG18 G3 X0 Z0 I-5 K0\n"
+        "G17 G5 X20 Y0 I1 J2 P-3 Q4\nG5.1 X30 Y5 I2 J2\n");
+    poll_n(300, 1);
+    rxs("$J=G91 Y1 F100\n"); /* a jog needs the machine idle */
+    poll_n(20, 1);
+    TH_ASSERT_EQ(o.n, 6);
+    TH_EXPECT_EQ(o.p[0].kind, PK_GRBL_PRIM_RAPID);
+    TH_EXPECT_EQ(o.p[0].end[0], 1000);       /* machine coordinates: X0 is MPos 1 */
+    TH_EXPECT_EQ(o.p[0].tool_on, 0);
+    TH_EXPECT_EQ(o.p[0].line, 2u);
+    TH_EXPECT_EQ(o.p[1].kind, PK_GRBL_PRIM_LINE);
+    TH_EXPECT_EQ(o.p[1].n, 7);
+    TH_EXPECT_EQ(o.p[1].tool_on, 1);
+    TH_EXPECT_EQ(o.p[1].feed_umpm, 600000);
+    TH_EXPECT_EQ(o.p[1].start[0], 1000);
+    TH_EXPECT_EQ(o.p[1].end[0], 11000);
+    const struct pk_grbl_prim *a = &o.p[2];
+    TH_EXPECT_EQ(a->kind, PK_GRBL_PRIM_ARC);
+    TH_EXPECT_EQ(a->a0, 2);                  /* G18: the plane is Z, X */
+    TH_EXPECT_EQ(a->a1, 0);
+    TH_EXPECT_EQ(a->al, 1);                  /* Y is the linear axis */
+    TH_EXPECT_EQ(a->cw, 0);
+    TH_EXPECT_EQ(a->centre_q8[0], 0);        /* centre (Z, X) = (0, 6 mm) */
+    TH_EXPECT_EQ(a->centre_q8[1], 6000 * 256);
+    TH_EXPECT_EQ(a->r0_q8, 5000 * 256);
+    TH_EXPECT_EQ(a->r1_q8, 5000 * 256);
+    TH_EXPECT(a->sweep == (1ull << 31));     /* half a turn */
+    TH_EXPECT_EQ(a->end[0], 1000);
+    TH_EXPECT(a->chord_tol_um > 0 && a->chord_tol_um <= 5); /* G64 $12/4 */
+    TH_EXPECT_EQ(o.p[3].kind, PK_GRBL_PRIM_CUBIC);
+    TH_EXPECT_EQ(o.p[3].ctrl[0][0], 1000 + 1000);  /* start + (I, J) */
+    TH_EXPECT_EQ(o.p[3].ctrl[0][1], 2000);
+    TH_EXPECT_EQ(o.p[3].ctrl[1][0], 21000 - 3000); /* end + (P, Q) */
+    TH_EXPECT_EQ(o.p[3].ctrl[1][1], 4000);
+    TH_EXPECT_EQ(o.p[4].kind, PK_GRBL_PRIM_QUAD);
+    TH_EXPECT_EQ(o.p[4].ctrl[0][0], 21000 + 2000);
+    TH_EXPECT_EQ(o.p[4].ctrl[0][1], 2000);
+    TH_EXPECT_EQ(o.p[5].kind, PK_GRBL_PRIM_LINE);
+    TH_EXPECT_EQ(o.p[5].jog, 1);
+    TH_EXPECT_EQ(o.p[5].end[1], 6000);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -781,6 +997,13 @@ int th_main(int argc, char **argv)
         TH_CASE(test_jog_moves_without_touching_modal_state_and_cancels_cleanly),
         TH_CASE(test_a_machine_fault_raises_alarm_1_and_locks_g_code),
         TH_CASE(test_random_traffic_gets_exactly_one_answer_per_line),
+        TH_CASE(test_spindle_s_scales_to_30_with_the_override_and_stops_the_machine_first),
+        TH_CASE(test_laser_mode_runs_feed_moves_at_s_and_rapids_at_zero_without_stopping),
+        TH_CASE(test_realtime_commands_are_flags_a_burst_cannot_lose),
+        TH_CASE(test_settings_offsets_and_lines_survive_a_restart_and_a_bad_store_is_reset),
+        TH_CASE(test_m0_and_g4_are_answered_only_when_done),
+        TH_CASE(test_door_is_a_feed_hold_with_a_message_without_a_door_input),
+        TH_CASE(test_the_observer_sees_each_programmed_primitive_before_flattening),
     };
     return th_run(cases, TH_COUNT(cases));
 }
