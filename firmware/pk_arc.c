@@ -11,12 +11,13 @@
  * accumulator), so vertex k sits exactly at floor(k * sweep / n).
  */
 #include "pk_arc.h"
+#include "pk_rom.h"
 
 #include <string.h>
 
 #define CORDIC_N 30
 /* round(atan(2^-i) / 2pi * 2^32) */
-static const uint32_t atan_tab[CORDIC_N] = {
+static const uint32_t atan_tab[CORDIC_N] PK_ROM = {
     536870912u, 316933406u, 167458907u, 85004756u, 42667331u, 21354465u, 10679838u,
     5340245u,   2670163u,   1335087u,   667544u,   333772u,   166886u,   83443u,
     41722u,     20861u,     10430u,     5215u,     2608u,     1304u,     652u,
@@ -54,11 +55,11 @@ void pk_arc_rotate(int32_t v[2], uint32_t phi)
         if (z >= 0) {
             x -= dx;
             y += dy;
-            z -= (int32_t)atan_tab[i];
+            z -= (int32_t)pk_rom_u32(&atan_tab[i]);
         } else {
             x += dx;
             y -= dy;
-            z += (int32_t)atan_tab[i];
+            z += (int32_t)pk_rom_u32(&atan_tab[i]);
         }
     }
     v[0] = x;
@@ -98,11 +99,11 @@ uint32_t pk_arc_atan2(int64_t y, int64_t x)
         if (yi > 0) {
             xi += dx;
             yi -= dy;
-            z += (int32_t)atan_tab[i];
+            z += (int32_t)pk_rom_u32(&atan_tab[i]);
         } else {
             xi -= dx;
             yi += dy;
-            z -= (int32_t)atan_tab[i];
+            z -= (int32_t)pk_rom_u32(&atan_tab[i]);
         }
     }
     return base + (uint32_t)z;

@@ -13,12 +13,13 @@
  * product), checked against ±PK_UM_MAX before anything is committed.
  */
 #include "pk_gcode.h"
+#include "pk_rom.h"
 
 #include <string.h>
 
 #define CUR_END (-1)
 
-static const uint32_t pow10_tab[10] = { 1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u,
+static const uint32_t pow10_tab[10] PK_ROM = { 1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u,
                                         10000000u, 100000000u, 1000000000u };
 
 struct pk_gc_cursor {
@@ -115,12 +116,12 @@ int pk_gcode_scaled(int32_t m, uint8_t md, uint8_t dec, int32_t *out)
     uint32_t a = m < 0 ? (uint32_t)0 - (uint32_t)m : (uint32_t)m;
     uint32_t r;
     if (dec >= md) {
-        uint32_t p = pow10_tab[dec - md > 9 ? 9 : dec - md];
+        uint32_t p = pk_rom_u32(&pow10_tab[dec - md > 9 ? 9 : dec - md]);
         if (dec - md > 9 || (a != 0 && a > 0x7fffffffu / p))
             return PK_GC_E_BAD_NUMBER;
         r = a * p;
     } else {
-        uint32_t p = pow10_tab[md - dec];
+        uint32_t p = pk_rom_u32(&pow10_tab[md - dec]);
         r = a / p;
         if ((a % p) * 2u >= p) /* half away from zero */
             r++;
@@ -135,7 +136,7 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
         return pk_gcode_scaled(m, dec, 3, out);
     /* 1 inch = 25400 µm: m * 25400 / 10^dec (|m| < 2^30: below 2^45) */
     int64_t v = (int64_t)m * 25400;
-    int64_t p = pow10_tab[dec];
+    int64_t p = pk_rom_u32(&pow10_tab[dec]);
     int64_t q = v >= 0 ? (v + p / 2) / p : -((-v + p / 2) / p);
     if (q > 0x7fffffffLL || q < -0x7fffffffLL)
         return PK_GC_E_BAD_NUMBER;
@@ -172,7 +173,7 @@ static int code_parts(int32_t m, uint8_t dec, uint32_t *whole, uint32_t *mant)
 {
     if (m < 0)
         return -1;
-    uint32_t p = pow10_tab[dec];
+    uint32_t p = pk_rom_u32(&pow10_tab[dec]);
     *whole = (uint32_t)m / p;
     uint32_t frac = (uint32_t)m % p;
     /* round(frac * 100 / p): frac < p <= 10^9, so frac * 100 fits in 64 bits
@@ -207,7 +208,7 @@ static int axis_command(struct pk_gc_block *b, uint8_t kind)
  * "mantissa". Its answer: error 23 where the wrapped code exists, else 20. */
 static int code_wrapped(int32_t m, uint8_t dec, int is_g)
 {
-    int32_t t = m / (int32_t)pow10_tab[dec]; /* trunc */
+    int32_t t = m / (int32_t)pk_rom_u32(&pow10_tab[dec]); /* trunc */
     uint32_t w = (uint32_t)t & 0xffu;
     if (!is_g)
         return PK_GC_E_NOT_INTEGER;
@@ -397,7 +398,7 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             if (w < 0)
                 return PK_GC_E_UNSUPPORTED;
             /* Grbl: T above 255 first, then repeats, then negatives */
-            if (w == PK_GC_W_T && m > 0 && ((uint32_t)m > 255u * pow10_tab[dec]))
+            if (w == PK_GC_W_T && m > 0 && ((uint32_t)m > 255u * pk_rom_u32(&pow10_tab[dec])))
                 return PK_GC_E_TOOL_NUMBER;
             if (has(out, w))
                 return PK_GC_E_REPEATED_WORD;
@@ -470,7 +471,7 @@ static int in_range(int64_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 /* Truncated integer value of a word (Grbl's int_value). */
 static uint32_t word_uint(const struct pk_gc_block *b, int w)
 {
-    return b->m[w] < 0 ? 0u : (uint32_t)b->m[w] / pow10_tab[b->dec[w]];
+    return b->m[w] < 0 ? 0u : (uint32_t)b->m[w] / pk_rom_u32(&pow10_tab[b->dec[w]]);
 }
 
 /* G5 / G5.1 control points (plotkin; LinuxCNC's rules). */
@@ -798,7 +799,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                         return PK_GC_E_BAD_TARGET;
                     int32_t r;
                     if (pk_gcode_len_um(b->m[PK_GC_W_R], b->dec[PK_GC_W_R], units, &r) != PK_GC_OK ||
-                        r > (1 << 30) || r < -(1 << 30))
+                        r > (INT32_C(1) << 30) || r < -(INT32_C(1) << 30))
                         return PK_GC_E_BAD_TARGET;
                     rc = pk_arc_centre_r(&g, r);
                 } else {

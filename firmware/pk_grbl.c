@@ -69,20 +69,20 @@ static void answer(struct pk_grbl *g, int status)
     if (g->line_src) { /* a startup line: ">line:ok" */
         uint8_t buf[PK_GRBL_LINE_MAX];
         unsigned n = pk_grbl_nvm_line_read(g, g->line_src - 1u, buf);
-        pk_grbl_puts(g, ">");
+        PK_GRBL_PUTS(g, ">");
         pk_grbl_put(g, (const char *)buf, n);
-        pk_grbl_puts(g, ":");
+        PK_GRBL_PUTS(g, ":");
     }
     if (status == 0) {
         if (!g->line_src)
             g->stats.ok++;
-        pk_grbl_puts(g, "ok\r\n");
+        PK_GRBL_PUTS(g, "ok\r\n");
     } else {
         if (!g->line_src)
             g->stats.errors++;
-        pk_grbl_puts(g, "error:");
+        PK_GRBL_PUTS(g, "error:");
         pk_grbl_put_u32(g, (uint32_t)status);
-        pk_grbl_puts(g, "\r\n");
+        PK_GRBL_PUTS(g, "\r\n");
     }
     g->line_src = 0;
 }
@@ -532,7 +532,7 @@ static int do_move(struct pk_grbl *g)
                                            ((c->motion - PK_GC_MOT_PROBE_TOWARD) & 1u ? 2u : 0u))
                              : PK_GRBL_M_ENOTSUP;
         if (rc == PK_GRBL_M_ENOTSUP) {
-            pk_grbl_puts(g, "[MSG:No probe input: G38 is not supported by this machine]\r\n");
+            PK_GRBL_PUTS(g, "[MSG:No probe input: G38 is not supported by this machine]\r\n");
             return -PK_GC_E_UNSUPPORTED;
         }
         return op_rc(rc);
@@ -580,7 +580,7 @@ static int do_stop(struct pk_grbl *g)
         g->ovr_counter = 0;
         apply_overrides(g);
     }
-    pk_grbl_puts(g, "[MSG:Pgm End]\r\n");
+    PK_GRBL_PUTS(g, "[MSG:Pgm End]\r\n");
     return 1;
 }
 
@@ -732,7 +732,7 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
     if (pk_grbl_mstate(g) != PK_GRBL_M_IDLE && pk_grbl_mstate(g) != PK_GRBL_M_ALARM)
         return 8;
     if (g->mo.configure(g->m, &next) != 0) {
-        pk_grbl_puts(g, "[MSG:Setting refused by the machine]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:Setting refused by the machine]\r\n");
         return 3;
     }
     g->set = next;
@@ -744,9 +744,9 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
         g->wco_counter = 0;
     /* stored for the limit inputs; say so where there are none */
     if (val && !g->mo.home && idx == PK_GRBL_S_HARD_LIMITS)
-        pk_grbl_puts(g, "[MSG:No limit switches: hard limits stored, not active]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:No limit switches: hard limits stored, not active]\r\n");
     if (val && !g->mo.home && idx == PK_GRBL_S_HOMING)
-        pk_grbl_puts(g, "[MSG:No limit switches: $H cannot run, $X unlocks]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:No limit switches: $H cannot run, $X unlocks]\r\n");
     return 0;
 }
 
@@ -814,7 +814,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
             return;
         } else if (c[0] == 'C') {
             if (gs == GS_CHECK) {
-                pk_grbl_puts(g, "[MSG:Disabled]\r\n");
+                PK_GRBL_PUTS(g, "[MSG:Disabled]\r\n");
                 answer(g, 0);
                 soft_reset(g); /* leaving check mode restarts, as Grbl */
                 return;
@@ -823,7 +823,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
                 rc = 8;
             } else {
                 g->check_mode = 1;
-                pk_grbl_puts(g, "[MSG:Enabled]\r\n");
+                PK_GRBL_PUTS(g, "[MSG:Enabled]\r\n");
             }
         } else { /* X */
             if (pk_grbl_mstate(g) == PK_GRBL_M_ALARM) {
@@ -834,7 +834,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
                 g->laser_sent = -1;
             }
             if (g->alarm) {
-                pk_grbl_puts(g, "[MSG:Caution: Unlocked]\r\n");
+                PK_GRBL_PUTS(g, "[MSG:Caution: Unlocked]\r\n");
                 g->alarm = 0;
                 g->m_alarm_seen = 0;
             }
@@ -861,7 +861,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
             else if (!g->set.v[PK_GRBL_S_HOMING])
                 rc = 5;
             else if (!g->mo.home || g->mo.home(g->m, (1u << PK_GC_AXES) - 1u) == PK_GRBL_M_ENOTSUP) {
-                pk_grbl_puts(g, "[MSG:No limit switches: $H is not supported by this machine]\r\n");
+                PK_GRBL_PUTS(g, "[MSG:No limit switches: $H is not supported by this machine]\r\n");
                 rc = 5;
             }
             break;
@@ -895,7 +895,7 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
                     (void)g->mo.configure(g->m, &g->set);
                     soft_limits_apply(g);
                 }
-                pk_grbl_puts(g, "[MSG:Restoring defaults]\r\n");
+                PK_GRBL_PUTS(g, "[MSG:Restoring defaults]\r\n");
                 answer(g, 0);
                 soft_reset(g); /* Grbl: a reset to take the settings in */
                 return;
@@ -977,7 +977,7 @@ static void process_line(struct pk_grbl *g)
     if (!g->line_src)
         g->line_no++;
     if (flags & LF_LOST) {
-        pk_grbl_puts(g, "[MSG:RX overflow: bytes of this line were lost]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:RX overflow: bytes of this line were lost]\r\n");
         answer(g, PK_GC_E_LINE_OVERFLOW);
         return;
     }
@@ -1060,9 +1060,9 @@ static int startup_line(struct pk_grbl *g)
 
 static void greet(struct pk_grbl *g)
 {
-    pk_grbl_puts(g, "\r\nGrbl 1.1h [" PK_GRBL_VERSION_STR " '$' for help]\r\n");
+    PK_GRBL_PUTS(g, "\r\nGrbl 1.1h [" PK_GRBL_VERSION_STR " '$' for help]\r\n");
     if (g->alarm)
-        pk_grbl_puts(g, "[MSG:'$H'|'$X' to unlock]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:'$H'|'$X' to unlock]\r\n");
     g->startup_next = g->alarm ? PK_GRBL_N_STARTUP : 0u;
 }
 
@@ -1110,7 +1110,7 @@ static void soft_reset(struct pk_grbl *g)
     g->wco_counter = g->ovr_counter = 0;
     reset_gcode_state(g);
     if (cut)
-        pk_grbl_puts(g, "ALARM:3\r\n");
+        PK_GRBL_PUTS(g, "ALARM:3\r\n");
     g->greet_due = 1;
 }
 
@@ -1131,10 +1131,10 @@ static void modes(struct pk_grbl *g)
         if (g->mode == MODE_SOFTLIMIT) {
             g->alarm = 2;
             g->mode = MODE_CRITICAL;
-            pk_grbl_puts(g, "ALARM:2\r\n[MSG:Reset to continue]\r\n");
+            PK_GRBL_PUTS(g, "ALARM:2\r\n[MSG:Reset to continue]\r\n");
         } else {
             g->mode = MODE_SLEEP;
-            pk_grbl_puts(g, "[MSG:Sleeping]\r\n");
+            PK_GRBL_PUTS(g, "[MSG:Sleeping]\r\n");
         }
     }
     if (g->jogging) {
@@ -1226,13 +1226,13 @@ static void messages(struct pk_grbl *g)
 {
     switch (g->msg_due) {
     case MSG_RESTORING:
-        pk_grbl_puts(g, "[MSG:Restoring defaults]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:Restoring defaults]\r\n");
         break;
     case MSG_NO_SPINDLE_STOP:
-        pk_grbl_puts(g, "[MSG:Spindle stop override is not supported]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:Spindle stop override is not supported]\r\n");
         break;
     case MSG_DOOR_HOLD:
-        pk_grbl_puts(g, "[MSG:No safety door: feed hold only, the tool stays as it is]\r\n");
+        PK_GRBL_PUTS(g, "[MSG:No safety door: feed hold only, the tool stays as it is]\r\n");
         break;
     default:
         break;
@@ -1250,7 +1250,7 @@ void pk_grbl_poll(struct pk_grbl *g)
         g->m_alarm_seen = 1;
         g->alarm = 1;
         g->mode = MODE_RUN;
-        pk_grbl_puts(g, "ALARM:1\r\n");
+        PK_GRBL_PUTS(g, "ALARM:1\r\n");
         if (g->todo) {
             g->todo = 0;
             g->step = 0;

@@ -192,8 +192,9 @@ struct pk_grbl_setting_def {
     int32_t def, min, max;
 };
 
-/** The table entry of setting idx, or NULL if out of range (static, const). */
-const struct pk_grbl_setting_def *pk_grbl_setting_def(int idx);
+/** Copy the table entry of setting idx into *out (the table may live in
+ *  program memory, pk_rom.h). 0, or -1 if idx is out of range. */
+int pk_grbl_setting_def(int idx, struct pk_grbl_setting_def *out);
 
 /** Index of setting `$num`, or -1 if there is none. */
 int pk_grbl_setting_index(uint32_t num);

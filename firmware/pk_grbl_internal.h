@@ -8,6 +8,7 @@
 #define PLOTKIN_PK_GRBL_INTERNAL_H
 
 #include "pk_grbl.h"
+#include "pk_rom.h"
 
 /* engine modes (pk_grbl.mode) */
 enum {
@@ -31,15 +32,18 @@ enum { R_NONE = 0, R_SETTINGS, R_OFFSETS, R_INFO, R_GSTATE, R_HELP, R_STARTUP };
 size_t pk_grbl_out_room(const struct pk_grbl *g);
 void pk_grbl_put(struct pk_grbl *g, const char *s, size_t n);
 void pk_grbl_puts(struct pk_grbl *g, const char *s);
+/** A string in program memory (pk_rom.h); PK_GRBL_PUTS for literals. */
+void pk_grbl_puts_rom(struct pk_grbl *g, const char *rom_s);
+#define PK_GRBL_PUTS(g, lit) pk_grbl_puts_rom((g), PK_ROM_STR(lit))
 void pk_grbl_put_u32(struct pk_grbl *g, uint32_t v);
 /** v * 10^-dec printed with at least pdec and at most dec decimals (trailing
  *  zeros beyond pdec dropped), rounded half away when dec > pdec is cut. */
-void pk_grbl_put_fixed(struct pk_grbl *g, int64_t v, unsigned dec, unsigned pdec);
+void pk_grbl_put_fixed(struct pk_grbl *g, int32_t v, unsigned dec, unsigned pdec);
 /** µm as mm (3 decimals) or, with $13, inches (4 decimals). */
-void pk_grbl_put_len(struct pk_grbl *g, int64_t um);
+void pk_grbl_put_len(struct pk_grbl *g, int32_t um);
 void pk_grbl_put_axes(struct pk_grbl *g, const pk_um_t v[PK_GC_AXES]);
 /** µm/min as mm/min (0 decimals) or, with $13, in/min (1 decimal). */
-void pk_grbl_put_rate(struct pk_grbl *g, int64_t um_min);
+void pk_grbl_put_rate(struct pk_grbl *g, int32_t um_min);
 void pk_grbl_status_report(struct pk_grbl *g);
 /** Emit report lines while room allows; 1 when the report is complete. */
 int pk_grbl_report_step(struct pk_grbl *g);

@@ -29,6 +29,13 @@ void pk_grbl_put(struct pk_grbl *g, const char *s, size_t n)
 
 void pk_grbl_puts(struct pk_grbl *g, const char *s) { pk_grbl_put(g, s, strlen(s)); }
 
+void pk_grbl_puts_rom(struct pk_grbl *g, const char *rom_s)
+{
+    size_t room = pk_grbl_out_room(g);
+    for (uint8_t c; room > 0 && (c = pk_rom_u8(rom_s)) != 0u; rom_s++, room--)
+        g->out[g->out_len++] = c;
+}
+
 void pk_grbl_put_u32(struct pk_grbl *g, uint32_t v)
 {
     char b[10];
@@ -40,30 +47,21 @@ void pk_grbl_put_u32(struct pk_grbl *g, uint32_t v)
     pk_grbl_put(g, b + n, (size_t)(10 - n));
 }
 
-void pk_grbl_put_fixed(struct pk_grbl *g, int64_t v, unsigned dec, unsigned pdec)
+/* Reports are 32-bit throughout (no 64-bit helpers on AVR): every value
+ * printed is an int32 setting, a position within +-2 * PK_UM_MAX, a rate or
+ * a spindle speed. */
+void pk_grbl_put_fixed(struct pk_grbl *g, int32_t v, unsigned dec, unsigned pdec)
 {
+    uint32_t u = (uint32_t)v;
     if (v < 0) {
-        pk_grbl_puts(g, "-");
-        v = -v;
+        PK_GRBL_PUTS(g, "-");
+        u = 0u - u;
     }
-    uint64_t u = (uint64_t)v, p = 1;
+    uint32_t p = 1;
     for (unsigned i = 0; i < dec; i++)
         p *= 10u;
-    uint64_t ip = u / p, fp = u % p;
-    /* a 64-bit integer part only for out-of-range values: print its low
-     * 32 bits' worth honestly by splitting */
-    if (ip > 0xffffffffu) {
-        pk_grbl_put_u32(g, (uint32_t)(ip / 1000000000u));
-        char z[9];
-        uint32_t lo = (uint32_t)(ip % 1000000000u);
-        for (int i = 8; i >= 0; i--) {
-            z[i] = (char)('0' + lo % 10u);
-            lo /= 10u;
-        }
-        pk_grbl_put(g, z, 9);
-    } else {
-        pk_grbl_put_u32(g, (uint32_t)ip);
-    }
+    uint32_t fp = u % p;
+    pk_grbl_put_u32(g, u / p);
     unsigned nd = dec;
     while (nd > pdec && fp % 10u == 0u) {
         fp /= 10u;
@@ -79,32 +77,41 @@ void pk_grbl_put_fixed(struct pk_grbl *g, int64_t v, unsigned dec, unsigned pdec
         f[i - 1] = (char)('0' + fp % 10u);
         fp /= 10u;
     }
-    pk_grbl_puts(g, ".");
+    PK_GRBL_PUTS(g, ".");
     pk_grbl_put(g, f, total);
 }
 
 static int inches(const struct pk_grbl *g) { return g->set.v[PK_GRBL_S_REPORT_INCHES] != 0; }
 
-static int64_t div_round(int64_t x, int64_t d) { return x >= 0 ? (x + d / 2) / d : -((-x + d / 2) / d); }
-
-void pk_grbl_put_len(struct pk_grbl *g, int64_t um)
+/* x / d rounded half away from zero; d > 0 */
+static int32_t div_round(int32_t x, int32_t d)
 {
-    if (inches(g))
-        pk_grbl_put_fixed(g, div_round(um * 100, 254), 4, 4); /* 1e-4 inch */
-    else
+    return x >= 0 ? (int32_t)(((uint32_t)x + (uint32_t)d / 2u) / (uint32_t)d)
+                  : -(int32_t)(((0u - (uint32_t)x) + (uint32_t)d / 2u) / (uint32_t)d);
+}
+
+void pk_grbl_put_len(struct pk_grbl *g, int32_t um)
+{
+    if (inches(g)) {
+        /* 1e-4 inch = um * 50 / 127; |um| <= 2 * PK_UM_MAX keeps um * 50 in range */
+        if (um > 40000000 || um < -40000000)
+            um = um > 0 ? 40000000 : -40000000;
+        pk_grbl_put_fixed(g, div_round(um * 50, 127), 4, 4);
+    } else {
         pk_grbl_put_fixed(g, um, 3, 3);
+    }
 }
 
 void pk_grbl_put_axes(struct pk_grbl *g, const pk_um_t v[PK_GC_AXES])
 {
     for (int a = 0; a < PK_GC_AXES; a++) {
         if (a)
-            pk_grbl_puts(g, ",");
+            PK_GRBL_PUTS(g, ",");
         pk_grbl_put_len(g, v[a]);
     }
 }
 
-void pk_grbl_put_rate(struct pk_grbl *g, int64_t um_min)
+void pk_grbl_put_rate(struct pk_grbl *g, int32_t um_min)
 {
     if (inches(g))
         pk_grbl_put_fixed(g, div_round(um_min, 2540), 1, 1); /* 0.1 in/min */
@@ -114,16 +121,17 @@ void pk_grbl_put_rate(struct pk_grbl *g, int64_t um_min)
 
 int32_t pk_grbl_spindle_rpm_milli(const struct pk_grbl *g)
 {
-    if (g->gc.spindle == PK_GC_SPINDLE_OFF)
+    if (g->gc.spindle == PK_GC_SPINDLE_OFF || g->gc.spindle_s <= 0)
         return 0;
-    int64_t s = (int64_t)g->gc.spindle_s * g->ovr_spindle / 100;
-    int32_t mx = g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    uint32_t sm = (uint32_t)g->gc.spindle_s, ovr = g->ovr_spindle;
+    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u; /* < 2^32 for any int32 S */
+    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
     if (s == 0)
         return 0;
     if (mn >= mx || s >= mx)
-        return mx;
+        return (int32_t)mx;
     if (s <= mn)
-        return mn;
+        return (int32_t)mn;
     return (int32_t)s;
 }
 
@@ -154,31 +162,31 @@ static const char *state_name(struct pk_grbl *g, int *busy)
     /* Grbl's "busy" states refresh WCO/Ov more slowly */
     *busy = s == PK_GRBL_RUN || s == PK_GRBL_HOLD0 || s == PK_GRBL_HOLD1 || s == PK_GRBL_JOG;
     switch (s) {
-    case PK_GRBL_RUN: return "Run";
-    case PK_GRBL_HOLD0: return "Hold:0";
-    case PK_GRBL_HOLD1: return "Hold:1";
-    case PK_GRBL_JOG: return "Jog";
-    case PK_GRBL_ALARM: return "Alarm";
-    case PK_GRBL_CHECK: return "Check";
-    case PK_GRBL_SLEEP: return "Sleep";
-    default: return "Idle";
+    case PK_GRBL_RUN: return PK_ROM_STR("Run");
+    case PK_GRBL_HOLD0: return PK_ROM_STR("Hold:0");
+    case PK_GRBL_HOLD1: return PK_ROM_STR("Hold:1");
+    case PK_GRBL_JOG: return PK_ROM_STR("Jog");
+    case PK_GRBL_ALARM: return PK_ROM_STR("Alarm");
+    case PK_GRBL_CHECK: return PK_ROM_STR("Check");
+    case PK_GRBL_SLEEP: return PK_ROM_STR("Sleep");
+    default: return PK_ROM_STR("Idle");
     }
 }
 
 static const char *motion_word(uint8_t m)
 {
     switch (m) {
-    case PK_GC_MOT_RAPID: return "G0";
-    case PK_GC_MOT_LINEAR: return "G1";
-    case PK_GC_MOT_CW_ARC: return "G2";
-    case PK_GC_MOT_CCW_ARC: return "G3";
-    case PK_GC_MOT_CUBIC: return "G5";
-    case PK_GC_MOT_QUAD: return "G5.1";
-    case PK_GC_MOT_PROBE_TOWARD: return "G38.2";
-    case PK_GC_MOT_PROBE_TOWARD_NO_ERROR: return "G38.3";
-    case PK_GC_MOT_PROBE_AWAY: return "G38.4";
-    case PK_GC_MOT_PROBE_AWAY_NO_ERROR: return "G38.5";
-    default: return "G80";
+    case PK_GC_MOT_RAPID: return PK_ROM_STR("G0");
+    case PK_GC_MOT_LINEAR: return PK_ROM_STR("G1");
+    case PK_GC_MOT_CW_ARC: return PK_ROM_STR("G2");
+    case PK_GC_MOT_CCW_ARC: return PK_ROM_STR("G3");
+    case PK_GC_MOT_CUBIC: return PK_ROM_STR("G5");
+    case PK_GC_MOT_QUAD: return PK_ROM_STR("G5.1");
+    case PK_GC_MOT_PROBE_TOWARD: return PK_ROM_STR("G38.2");
+    case PK_GC_MOT_PROBE_TOWARD_NO_ERROR: return PK_ROM_STR("G38.3");
+    case PK_GC_MOT_PROBE_AWAY: return PK_ROM_STR("G38.4");
+    case PK_GC_MOT_PROBE_AWAY_NO_ERROR: return PK_ROM_STR("G38.5");
+    default: return PK_ROM_STR("G80");
     }
 }
 
@@ -190,27 +198,27 @@ void pk_grbl_status_report(struct pk_grbl *g)
         wco[a] = pk_gcode_wco(&g->gc, a);
     int busy;
     const char *name = state_name(g, &busy);
-    pk_grbl_puts(g, "<");
-    pk_grbl_puts(g, name);
+    PK_GRBL_PUTS(g, "<");
+    pk_grbl_puts_rom(g, name);
     int32_t mask = g->set.v[PK_GRBL_S_REPORT_MASK];
     if (mask & 1) {
-        pk_grbl_puts(g, "|MPos:");
+        PK_GRBL_PUTS(g, "|MPos:");
     } else {
-        pk_grbl_puts(g, "|WPos:");
+        PK_GRBL_PUTS(g, "|WPos:");
         for (unsigned a = 0; a < PK_GC_AXES; a++)
             pos[a] -= wco[a];
     }
     pk_grbl_put_axes(g, pos);
     if (mask & 2) {
-        pk_grbl_puts(g, "|Bf:");
+        PK_GRBL_PUTS(g, "|Bf:");
         pk_grbl_put_u32(g, g->mo.blocks_free(g->m));
-        pk_grbl_puts(g, ",");
+        PK_GRBL_PUTS(g, ",");
         size_t used = g->io.rx_used ? g->io.rx_used(g->io.ctx) : 0;
         pk_grbl_put_u32(g, used >= PK_GRBL_RX_ADVERTISED ? 0u : (uint32_t)(PK_GRBL_RX_ADVERTISED - used));
     }
-    pk_grbl_puts(g, "|FS:");
+    PK_GRBL_PUTS(g, "|FS:");
     pk_grbl_put_rate(g, g->mo.speed_umpm(g->m));
-    pk_grbl_puts(g, ",");
+    PK_GRBL_PUTS(g, ",");
     pk_grbl_put_fixed(g, pk_grbl_spindle_rpm_milli(g), 3, 0);
     /* Grbl's schedule (report.c): WCO when its counter runs out, then Ov on
      * the next report; both at once after a change (counter set to 0). */
@@ -220,34 +228,34 @@ void pk_grbl_status_report(struct pk_grbl *g)
         g->wco_counter = (uint8_t)((busy ? WCO_BUSY : WCO_IDLE) - 1u);
         if (g->ovr_counter == 0)
             g->ovr_counter = 1;
-        pk_grbl_puts(g, "|WCO:");
+        PK_GRBL_PUTS(g, "|WCO:");
         pk_grbl_put_axes(g, wco);
     }
     if (g->ovr_counter > 0) {
         g->ovr_counter--;
     } else {
         g->ovr_counter = (uint8_t)((busy ? OVR_BUSY : OVR_IDLE) - 1u);
-        pk_grbl_puts(g, "|Ov:");
+        PK_GRBL_PUTS(g, "|Ov:");
         pk_grbl_put_u32(g, g->ovr_feed);
-        pk_grbl_puts(g, ",");
+        PK_GRBL_PUTS(g, ",");
         pk_grbl_put_u32(g, g->ovr_rapid);
-        pk_grbl_puts(g, ",");
+        PK_GRBL_PUTS(g, ",");
         pk_grbl_put_u32(g, g->ovr_spindle);
         /* the output, as Grbl reads its pin: in laser mode it is off while
          * the last value sent (G0, or S0) is 0 */
         int sp = g->gc.spindle != PK_GC_SPINDLE_OFF &&
                  !(g->set.v[PK_GRBL_S_LASER] && g->laser_sent <= 0);
         if (sp || g->gc.coolant) {
-            pk_grbl_puts(g, "|A:");
+            PK_GRBL_PUTS(g, "|A:");
             if (sp)
-                pk_grbl_puts(g, g->gc.spindle == PK_GC_SPINDLE_CCW ? "C" : "S");
+                pk_grbl_puts_rom(g, g->gc.spindle == PK_GC_SPINDLE_CCW ? PK_ROM_STR("C") : PK_ROM_STR("S"));
             if (g->gc.coolant & PK_GC_COOLANT_FLOOD)
-                pk_grbl_puts(g, "F");
+                PK_GRBL_PUTS(g, "F");
             if (g->gc.coolant & PK_GC_COOLANT_MIST)
-                pk_grbl_puts(g, "M");
+                PK_GRBL_PUTS(g, "M");
         }
     }
-    pk_grbl_puts(g, ">\r\n");
+    PK_GRBL_PUTS(g, ">\r\n");
 }
 
 /* ---- multi-line reports ---------------------------------------------------------- */
@@ -255,35 +263,37 @@ void pk_grbl_status_report(struct pk_grbl *g)
 static void gstate(struct pk_grbl *g)
 {
     const struct pk_gc_state *s = &g->gc;
-    pk_grbl_puts(g, "[GC:");
-    pk_grbl_puts(g, motion_word(s->motion));
-    pk_grbl_puts(g, " G");
+    PK_GRBL_PUTS(g, "[GC:");
+    pk_grbl_puts_rom(g, motion_word(s->motion));
+    PK_GRBL_PUTS(g, " G");
     pk_grbl_put_u32(g, 54u + s->wcs);
-    pk_grbl_puts(g, " G");
+    PK_GRBL_PUTS(g, " G");
     pk_grbl_put_u32(g, 17u + s->plane);
-    pk_grbl_puts(g, s->units == PK_GC_INCH ? " G20" : " G21");
-    pk_grbl_puts(g, s->distance == PK_GC_INCREMENTAL ? " G91" : " G90");
-    pk_grbl_puts(g, s->feedmode == PK_GC_INVERSE_TIME ? " G93" : " G94");
-    pk_grbl_puts(g, s->path == PK_GC_PATH_EXACT ? " G61" : " G64");
-    pk_grbl_puts(g, s->spindle == PK_GC_SPINDLE_CW ? " M3" : s->spindle == PK_GC_SPINDLE_CCW ? " M4" : " M5");
+    pk_grbl_puts_rom(g, s->units == PK_GC_INCH ? PK_ROM_STR(" G20") : PK_ROM_STR(" G21"));
+    pk_grbl_puts_rom(g, s->distance == PK_GC_INCREMENTAL ? PK_ROM_STR(" G91") : PK_ROM_STR(" G90"));
+    pk_grbl_puts_rom(g, s->feedmode == PK_GC_INVERSE_TIME ? PK_ROM_STR(" G93") : PK_ROM_STR(" G94"));
+    pk_grbl_puts_rom(g, s->path == PK_GC_PATH_EXACT ? PK_ROM_STR(" G61") : PK_ROM_STR(" G64"));
+    pk_grbl_puts_rom(g, s->spindle == PK_GC_SPINDLE_CW    ? PK_ROM_STR(" M3")
+                        : s->spindle == PK_GC_SPINDLE_CCW ? PK_ROM_STR(" M4")
+                                                          : PK_ROM_STR(" M5"));
     if (s->coolant) {
         if (s->coolant & PK_GC_COOLANT_MIST)
-            pk_grbl_puts(g, " M7");
+            PK_GRBL_PUTS(g, " M7");
         if (s->coolant & PK_GC_COOLANT_FLOOD)
-            pk_grbl_puts(g, " M8");
+            PK_GRBL_PUTS(g, " M8");
     } else {
-        pk_grbl_puts(g, " M9");
+        PK_GRBL_PUTS(g, " M9");
     }
-    pk_grbl_puts(g, " T");
+    PK_GRBL_PUTS(g, " T");
     pk_grbl_put_u32(g, s->tool);
-    pk_grbl_puts(g, " F");
+    PK_GRBL_PUTS(g, " F");
     if (s->feedmode == PK_GC_INVERSE_TIME)
         pk_grbl_put_fixed(g, div_round(s->feed, 1000), 0, 0);
     else
         pk_grbl_put_rate(g, s->feed);
-    pk_grbl_puts(g, " S");
+    PK_GRBL_PUTS(g, " S");
     pk_grbl_put_fixed(g, div_round(s->spindle_s, 1000), 0, 0);
-    pk_grbl_puts(g, "]\r\n");
+    PK_GRBL_PUTS(g, "]\r\n");
 }
 
 /* One piece of a report; returns 1 when the report is complete. */
@@ -293,12 +303,13 @@ static int report_piece(struct pk_grbl *g)
     case R_SETTINGS: {
         if (g->report_i >= PK_GRBL_S_COUNT)
             return 1;
-        const struct pk_grbl_setting_def *d = pk_grbl_setting_def(g->report_i);
-        pk_grbl_puts(g, "$");
-        pk_grbl_put_u32(g, d->num);
-        pk_grbl_puts(g, "=");
-        pk_grbl_put_fixed(g, g->set.v[g->report_i], d->dec, d->pdec);
-        pk_grbl_puts(g, "\r\n");
+        struct pk_grbl_setting_def d;
+        (void)pk_grbl_setting_def(g->report_i, &d);
+        PK_GRBL_PUTS(g, "$");
+        pk_grbl_put_u32(g, d.num);
+        PK_GRBL_PUTS(g, "=");
+        pk_grbl_put_fixed(g, g->set.v[g->report_i], d.dec, d.pdec);
+        PK_GRBL_PUTS(g, "\r\n");
         g->report_i++;
         return 0;
     }
@@ -307,22 +318,22 @@ static int report_piece(struct pk_grbl *g)
         pk_um_t v[PK_GC_AXES];
         if (i < PK_GC_COORD_COUNT) {
             (void)pk_grbl_nvm_coord_read(g, i, v);
-            pk_grbl_puts(g, "[G");
+            PK_GRBL_PUTS(g, "[G");
             pk_grbl_put_u32(g, i == PK_GC_COORD_G28 ? 28u : i == PK_GC_COORD_G30 ? 30u : 54u + i);
-            pk_grbl_puts(g, ":");
+            PK_GRBL_PUTS(g, ":");
             pk_grbl_put_axes(g, v);
-            pk_grbl_puts(g, "]\r\n");
+            PK_GRBL_PUTS(g, "]\r\n");
         } else if (i == PK_GC_COORD_COUNT) {
-            pk_grbl_puts(g, "[G92:");
+            PK_GRBL_PUTS(g, "[G92:");
             pk_grbl_put_axes(g, g->gc.g92_um);
-            pk_grbl_puts(g, "]\r\n[TLO:");
+            PK_GRBL_PUTS(g, "]\r\n[TLO:");
             pk_grbl_put_len(g, g->gc.tlo_um);
-            pk_grbl_puts(g, "]\r\n");
+            PK_GRBL_PUTS(g, "]\r\n");
         } else {
-            static const pk_um_t zero[PK_GC_AXES];
-            pk_grbl_puts(g, "[PRB:");
+            const pk_um_t zero[PK_GC_AXES] = { 0 }; /* a local: a zeroed const lands in .bss on AVR */
+            PK_GRBL_PUTS(g, "[PRB:");
             pk_grbl_put_axes(g, zero);
-            pk_grbl_puts(g, ":0]\r\n");
+            PK_GRBL_PUTS(g, ":0]\r\n");
             return 1;
         }
         return 0;
@@ -331,34 +342,34 @@ static int report_piece(struct pk_grbl *g)
         uint8_t buf[PK_GRBL_LINE_MAX];
         if (g->report_i++ == 0) {
             unsigned n = pk_grbl_nvm_line_read(g, PK_GRBL_N_STARTUP, buf);
-            pk_grbl_puts(g, "[VER:1.1h.plotkin-0.1:");
+            PK_GRBL_PUTS(g, "[VER:1.1h.plotkin-0.1:");
             pk_grbl_put(g, (const char *)buf, n);
-            pk_grbl_puts(g, "]\r\n");
+            PK_GRBL_PUTS(g, "]\r\n");
             return 0;
         }
-        pk_grbl_puts(g, "[OPT:VM,");
+        PK_GRBL_PUTS(g, "[OPT:VM,");
         pk_grbl_put_u32(g, g->mo.blocks_total(g->m));
-        pk_grbl_puts(g, ",");
+        PK_GRBL_PUTS(g, ",");
         pk_grbl_put_u32(g, PK_GRBL_RX_ADVERTISED);
-        pk_grbl_puts(g, "]\r\n");
+        PK_GRBL_PUTS(g, "]\r\n");
         return 1;
     }
     case R_STARTUP: {
         uint8_t buf[PK_GRBL_LINE_MAX];
         unsigned k = g->report_i++;
         unsigned n = pk_grbl_nvm_line_read(g, k, buf);
-        pk_grbl_puts(g, "$N");
+        PK_GRBL_PUTS(g, "$N");
         pk_grbl_put_u32(g, k);
-        pk_grbl_puts(g, "=");
+        PK_GRBL_PUTS(g, "=");
         pk_grbl_put(g, (const char *)buf, n);
-        pk_grbl_puts(g, "\r\n");
+        PK_GRBL_PUTS(g, "\r\n");
         return g->report_i >= PK_GRBL_N_STARTUP;
     }
     case R_GSTATE:
         gstate(g);
         return 1;
     case R_HELP:
-        pk_grbl_puts(g, "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]\r\n");
+        PK_GRBL_PUTS(g, "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]\r\n");
         return 1;
     default:
         return 1;

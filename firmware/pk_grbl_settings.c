@@ -14,6 +14,7 @@
  * A header that does not match this build restores everything.
  */
 #include "pk_grbl_internal.h"
+#include "pk_rom.h"
 
 #include <string.h>
 
@@ -39,7 +40,7 @@
     [base] = { num, dec, pdec, dx, mn, mx }, [base + 1] = { num + 1, dec, pdec, dy, mn, mx }
 #endif
 
-static const struct pk_grbl_setting_def table[PK_GRBL_S_COUNT] = {
+static const struct pk_grbl_setting_def table[PK_GRBL_S_COUNT] PK_ROM = {
     /*                         $   dec pdec default   min        max */
     [PK_GRBL_S_STEP_PULSE_US] = { 0, 0, 0, 10, 1, 1000 },
     [PK_GRBL_S_IDLE_DELAY_MS] = { 1, 0, 0, 25, 0, 255 },
@@ -77,15 +78,26 @@ static const struct pk_grbl_setting_def table[PK_GRBL_S_COUNT] = {
     [PK_GRBL_S_LOOKAHEAD_MS] = { 207, 0, 0, 0, 0, 60000 },
 };
 
-const struct pk_grbl_setting_def *pk_grbl_setting_def(int idx)
+/* The table lives in program memory (pk_rom.h): entries are copied out. */
+static struct pk_grbl_setting_def def_of(int idx)
 {
-    return idx >= 0 && idx < PK_GRBL_S_COUNT ? &table[idx] : NULL;
+    struct pk_grbl_setting_def d;
+    pk_rom_copy(&d, &table[idx], sizeof d);
+    return d;
+}
+
+int pk_grbl_setting_def(int idx, struct pk_grbl_setting_def *out)
+{
+    if (idx < 0 || idx >= PK_GRBL_S_COUNT)
+        return -1;
+    *out = def_of(idx);
+    return 0;
 }
 
 int pk_grbl_setting_index(uint32_t num)
 {
     for (int i = 0; i < PK_GRBL_S_COUNT; i++)
-        if (table[i].num == num)
+        if (pk_rom_u8(&table[i].num) == num)
             return i;
     return -1;
 }
@@ -93,13 +105,13 @@ int pk_grbl_setting_index(uint32_t num)
 void pk_grbl_settings_default(struct pk_grbl_settings *s)
 {
     for (int i = 0; i < PK_GRBL_S_COUNT; i++)
-        s->v[i] = table[i].def;
+        s->v[i] = def_of(i).def;
 }
 
 int32_t pk_grbl_setting_scaled(const struct pk_grbl_settings *s, int idx, unsigned k)
 {
     int32_t out = 0;
-    (void)pk_gcode_scaled(s->v[idx], table[idx].dec, (uint8_t)k, &out);
+    (void)pk_gcode_scaled(s->v[idx], pk_rom_u8(&table[idx].dec), (uint8_t)k, &out);
     return out;
 }
 
@@ -133,7 +145,7 @@ int pk_grbl_setting_parse(const uint8_t *s, size_t n, int *idx_out, int32_t *val
     int idx = pk_grbl_setting_index(num);
     if (idx < 0)
         return 3;
-    const struct pk_grbl_setting_def *d = &table[idx];
+    const struct pk_grbl_setting_def dd = def_of(idx), *d = &dd;
     int32_t v;
     if (d->dec == 0) {
         int32_t t = vm;
@@ -246,7 +258,8 @@ int pk_grbl_nvm_load_settings(struct pk_grbl *g)
     struct pk_grbl_settings s;
     for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
         s.v[i] = get32(b + 4 * i);
-        if (s.v[i] < table[i].min || s.v[i] > table[i].max)
+        struct pk_grbl_setting_def d = def_of(i);
+        if (s.v[i] < d.min || s.v[i] > d.max)
             return -1;
     }
     g->set = s;
@@ -333,7 +346,7 @@ void pk_grbl_nvm_restore(struct pk_grbl *g, unsigned what)
         (void)pk_grbl_nvm_save_settings(g);
     }
     if (what & 2u) {
-        static const pk_um_t zero[PK_GC_AXES];
+        const pk_um_t zero[PK_GC_AXES] = { 0 }; /* a local: a zeroed const lands in .bss on AVR */
         for (unsigned i = 0; i < PK_GC_COORD_COUNT; i++)
             (void)pk_grbl_nvm_coord_write(g, i, zero);
     }

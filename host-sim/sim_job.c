@@ -63,7 +63,8 @@ void pk_sim_cfg_from_grbl(struct pk_sim_cfg *c, const struct pk_grbl_settings *s
 {
     c->set = *s;
     for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
-        const struct pk_grbl_setting_def *d = pk_grbl_setting_def(i);
+        struct pk_grbl_setting_def dd, *d = &dd;
+        (void)pk_grbl_setting_def(i, &dd);
         double *dv = cfg_double(c, i);
         unsigned *uv = cfg_uint(c, i);
         if (dv != NULL)
@@ -79,7 +80,8 @@ int pk_sim_cfg_to_grbl(const struct pk_sim_cfg *cc, struct pk_grbl_settings *s, 
     struct pk_sim_cfg *c = (struct pk_sim_cfg *)cc; /* only read through the accessors */
     *s = c->set;
     for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
-        const struct pk_grbl_setting_def *d = pk_grbl_setting_def(i);
+        struct pk_grbl_setting_def dd, *d = &dd;
+        (void)pk_grbl_setting_def(i, &dd);
         const double *dv = cfg_double(c, i);
         const unsigned *uv = cfg_uint(c, i);
         if (dv == NULL && uv == NULL)
@@ -185,7 +187,7 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
         if (rc != 0) {
             unsigned long num = strtoul(s + 1, NULL, 10);
             int idx = pk_grbl_setting_index((uint32_t)num);
-            const struct pk_grbl_setting_def *d = pk_grbl_setting_def(idx);
+            struct pk_grbl_setting_def dd, *d = pk_grbl_setting_def(idx, &dd) == 0 ? &dd : NULL;
             if (d == NULL)
                 return failf(err, errlen, "line %u: unknown setting $%lu (error:%d)", lineno, num, rc);
             return failf(err, errlen, "line %u: $%lu: error:%d (%s; range %g..%g%s)", lineno, num, rc,
@@ -196,7 +198,7 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
         int idx = pk_grbl_setting_index((uint32_t)strtoul(s + 1, NULL, 10));
         if (warn && stored_only(idx))
             fprintf(warn, "plotkin sim: note: $%u has no effect in plotkin sim (%s)\n",
-                    (unsigned)pk_grbl_setting_def(idx)->num, stored_only(idx));
+                    (unsigned)strtoul(s + 1, NULL, 10), stored_only(idx));
     }
     return 0;
 }
