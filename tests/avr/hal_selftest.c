@@ -71,10 +71,21 @@ static void say_u32(uint32_t v, uint8_t min_digits)
     say(o);
 }
 
+/* A 32-bit counter the step interrupt changes: read with interrupts off
+ * (a byte-wise read across a borrow, 0x100 -> 0xFF, can see 0). */
+static uint32_t read_atomic(const volatile uint32_t *v)
+{
+    uint8_t sreg = SREG;
+    cli();
+    uint32_t x = *v;
+    SREG = sreg;
+    return x;
+}
+
 static void status(void)
 {
-    uint32_t s = steps_done; /* 100 steps/mm: 10 um per step */
-    say(steps_left ? "<Run|MPos:" : "<Idle|MPos:");
+    uint32_t s = read_atomic(&steps_done); /* 100 steps/mm: 10 um per step */
+    say(read_atomic(&steps_left) ? "<Run|MPos:" : "<Idle|MPos:");
     say_u32(s / 100u, 1);
     say(".");
     say_u32((s % 100u) * 10u, 3);
@@ -126,7 +137,7 @@ int main(void)
                 steps_left = k;
                 t_next = pk_avr_clock_ticks(&pk_avr_board) + PERIOD_TICKS;
                 (void)pk_avr_timer_start(&pk_avr_board, step_cb, NULL, t_next);
-                while (steps_left)
+                while (read_atomic(&steps_left))
                     ;
             }
         }
