@@ -2,22 +2,29 @@
  * pk_stepgen.c — chunk preparation (main loop) and pulse emission (timer
  * callback). See pk_stepgen.h for the scheme; the kinematics are below.
  *
- * Speed profile inside a block, as speed^2 against distance s (µm Q8) from
- * the block start, anchored at the prepared state (s0, v2_0):
+ * Segments of constant time. The main loop cuts the tail block into
+ * segments of seg_ticks (2 ms, at most 2^14 ticks), like Grbl's segment
+ * buffer: over one segment the speed goes from v0 to v1 = v0 +- a seg_t
+ * (accelerate towards the nominal, cruise, or decelerate towards the
+ * exit), so the segment covers ds = (v0 + v1)/2 seg_t. Its events are placed
+ * as under that constant acceleration: the first and last from the time at
+ * the mean speed corrected for the acceleration (at_time), the ones between
+ * by a linear ramp of the step interval, so the step rate changes smoothly
+ * inside a segment and across its boundaries (Grbl runs each segment at one
+ * speed: a jump every segment). With that choice v1^2 = v0^2 +-
+ * 2 a ds exactly, so the segment ends lie on the block's speed^2 lines: a
+ * segment that would cross the braking line v^2 = v_exit^2 + 2a(L - s) is
+ * shortened to end on it, and from there the segments decelerate along it,
+ * so the block is left at most at its planned exit speed, never above it. A block's last segment ends exactly at the block's end (its
+ * time follows from its length). Time is kept exactly in ticks Q16: the time
+ * from the last prepared event to the prepared position is carried to the
+ * next event, so no rounding accumulates.
  *
- *   normal:  v2(s) = min(v2_0 + 2a(s - s0),  v2_nom,  v2_exit + 2a(L - s))
- *   hold:    v2(s) = max(0, v2_0 - 2a(s - s0))
- *
- * Each piece is linear in s, i.e. constant acceleration, for which the time
- * over [sa, sb] is exactly 2 (sb - sa) / (va + vb). The time between two
- * events is summed over the pieces between them (breakpoints included), with
- * one integer square root per point. Units: v in µm/s Q2 (sqrt of the Q4
- * square), time in ticks Q16:
- *
- *   dt_q16 = ds_q8 * tick_hz * 2^11 / (va_q2 + vb_q2)
- *
- * ds_q8 of one chunk <= 64 events * (sqrt(3) mm / 1 step) < 2^25 at the
- * minimum 1 step/mm, tick_hz <= 2^25 (validated at init): product < 2^61.
+ * Arithmetic: speeds in µm/s Q4 (< 2^24), lengths in µm Q8, squares of
+ * speeds in (µm/s)^2 Q8 (64-bit), time in ticks Q16. Per segment the main
+ * loop needs a few 32x32->64 products and 64/32 divisions, and a square root
+ * only where a phase ends inside the segment (the nominal and exit speeds are
+ * cached per block): this is what lets an 8-bit chip keep the queue fed.
  */
 #include <string.h>
 #include "pk_stepgen.h"
@@ -27,106 +34,83 @@
 
 /* ------------------------------------------------------------------ prep */
 
-struct profile {
-    uint32_t s0, L;            /* µm Q8 */
-    pk_v2_q4_t v2_0, v2_nom, v2_exit;
-    uint32_t a;
-    bool hold;
-};
-
-/* 2a * ds in Q4 (ds in µm Q8) */
-static pk_v2_q4_t two_a(uint32_t a, uint64_t ds_q8) { return ((uint64_t)a * ds_q8) >> 3; }
-/* ds (µm Q8) over which speed^2 changes by dv2 (Q4) at accel a */
-static uint64_t ds_for(uint32_t a, pk_v2_q4_t dv2) { return (dv2 << 3) / a; }
-
-static pk_v2_q4_t prof_v2(const struct profile *p, uint32_t s)
+/* 64/32 division, rounded down, saturating at UINT32_MAX. */
+static uint32_t div64_32(uint64_t n, uint32_t d)
 {
-    uint64_t ds = s - p->s0;
-    if (p->hold) {
-        pk_v2_q4_t d = two_a(p->a, ds);
-        return d >= p->v2_0 ? 0 : p->v2_0 - d;
-    }
-    pk_v2_q4_t v;
-    if (p->v2_0 > p->v2_nom) {
-        /* above the nominal (an override lowered it): decelerate down to it */
-        pk_v2_q4_t d = two_a(p->a, ds);
-        v = d >= p->v2_0 - p->v2_nom ? p->v2_nom : p->v2_0 - d;
-    } else {
-        v = p->v2_0 + two_a(p->a, ds);
-        if (p->v2_nom < v)
-            v = p->v2_nom;
-    }
-    pk_v2_q4_t dec = p->v2_exit + two_a(p->a, (uint64_t)(p->L - s));
-    return dec < v ? dec : v;
+    if (d == 0)
+        return UINT32_MAX;
+    uint64_t q = n / d;
+    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
 }
 
-/* Breakpoints of the profile after s0 (ascending, < L); returns count (<= 2). */
-static unsigned prof_breaks(const struct profile *p, uint32_t bp[2])
-{
-    unsigned n = 0;
-    if (p->hold) {
-        uint64_t st = p->s0 + ds_for(p->a, p->v2_0);
-        if (st < p->L)
-            bp[n++] = (uint32_t)st;
-        return n;
-    }
-    /* accel (or, above the nominal, decel) line meets the nominal, decel line leaves it */
-    uint64_t s1 = p->s0 + (p->v2_nom > p->v2_0   ? ds_for(p->a, p->v2_nom - p->v2_0)
-                           : p->v2_0 > p->v2_nom ? ds_for(p->a, p->v2_0 - p->v2_nom)
-                                                 : 0);
-    uint64_t dd = p->v2_nom > p->v2_exit ? ds_for(p->a, p->v2_nom - p->v2_exit) : 0;
-    uint64_t s2 = dd < (uint64_t)p->L - p->s0 ? p->L - dd : p->s0;
-    if (s1 <= s2) {
-        if (s1 > p->s0 && s1 < p->L)
-            bp[n++] = (uint32_t)s1;
-        if (s2 > s1 && s2 < p->L)
-            bp[n++] = (uint32_t)s2;
-    } else if (p->v2_0 > p->v2_nom) {
-        /* still above the nominal where the final deceleration starts: both
-         * lines have slope -2a, so the lower one rules throughout: no corner */
-    } else {
-        /* triangle: v2_0 + 2a(x - s0) = v2_exit + 2a(L - x) */
-        int64_t num = (int64_t)ds_for(p->a, p->v2_exit) - (int64_t)ds_for(p->a, p->v2_0)
-                      + (int64_t)p->L + (int64_t)p->s0;
-        int64_t x = num / 2;
-        if (x > (int64_t)p->s0 && x < (int64_t)p->L)
-            bp[n++] = (uint32_t)x;
-    }
-    return n;
-}
+static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
 
-static uint32_t v_q2(pk_v2_q4_t v2) { return pk_isqrt64(v2); }
-
-static int64_t piece_q16(uint32_t tick_hz, uint32_t sa, uint32_t sb, uint32_t va, uint32_t vb)
-{
-    uint64_t vs = (uint64_t)va + vb;
-    if (vs == 0)
-        vs = 1;
-    return (int64_t)(((uint64_t)(sb - sa) * tick_hz * 2048u) / vs);
-}
-
-/* Exact (to rounding) time from sa to sb, ticks Q16. */
-static int64_t prof_time(const struct profile *p, uint32_t tick_hz, uint32_t sa, uint32_t sb)
-{
-    uint32_t bp[2];
-    unsigned nb = prof_breaks(p, bp);
-    int64_t t = 0;
-    uint32_t s = sa, v = v_q2(prof_v2(p, sa));
-    for (unsigned i = 0; i < nb; i++) {
-        if (bp[i] <= sa || bp[i] >= sb)
-            continue;
-        uint32_t vb = v_q2(prof_v2(p, bp[i]));
-        t += piece_q16(tick_hz, s, bp[i], v, vb);
-        s = bp[i];
-        v = vb;
-    }
-    t += piece_q16(tick_hz, s, sb, v, v_q2(prof_v2(p, sb)));
-    return t;
-}
-
+/* Distance (µm Q8) of event k of block b from its start: floor(k L / M). */
 static uint32_t ev_s(const struct pk_block *b, uint32_t k)
 {
     return (uint32_t)(((uint64_t)k * b->len_q8) / b->events);
+}
+
+/* Events of b at or before distance s: the largest k with ev_s(k) <= s. */
+static uint32_t ev_upto(const struct pk_block *b, uint32_t s_q8)
+{
+    if (s_q8 >= b->len_q8)
+        return b->events;
+    uint64_t k = (((uint64_t)s_q8 + 1u) * b->events - 1u) / b->len_q8;
+    return k > b->events ? b->events : (uint32_t)k;
+}
+
+/* Time (ticks Q16) to cover ds (µm Q8) at the speed v (µm/s Q4):
+ * ds / 256 / (v / 16) s = ds * 2^-4 / v s -> * tick_hz * 2^16. */
+static uint64_t time_q16(const struct pk_stepgen *sg, uint32_t ds_q8, uint32_t v_q4)
+{
+    if (v_q4 == 0)
+        return UINT64_MAX;
+    return ((uint64_t)ds_q8 * sg->tick_q12) / v_q4;
+}
+
+/* When a segment of duration T (ticks Q16) that covers its distance at the
+ * mean speed vseg = vsum / 2 reaches the point d (µm Q8) from its start. At constant
+ * speed: tau = d / vseg. The segment really accelerates (or decelerates)
+ * uniformly from v0 to v1, which puts the point later (earlier) by
+ *     eps = a tau (T - tau) / (2 v)  ~  r tau (T - tau) / (2 T),
+ * r = |v1 - v0| / vseg (the error of using vseg for v is second order).
+ * Without it the events next to a segment boundary are off by up to
+ * r T / 8 against the ramp inside the segment, a jolt at every boundary. */
+static uint64_t at_time(const struct pk_stepgen *sg, uint32_t d_q8, uint32_t vsum,
+                        uint64_t T_q16, uint32_t r_q15, bool accel)
+{
+    uint64_t tau = time_q16(sg, 2u * d_q8, vsum);
+    uint32_t T = (uint32_t)(T_q16 >> 16), t = (uint32_t)(tau >> 16);
+    if (T == 0 || t >= T || r_q15 == 0)
+        return tau;
+    /* r_q15 t (T - t) / T in Q16: r_q15 * 2^-15 * t (T - t) / (2T) * 2^16
+     * (t (T - t) <= 2^26 for T < 2^14 ticks, times r_q15 <= 2^16: < 2^42) */
+    uint64_t eps = ((uint64_t)r_q15 * t * (T - t)) / T;
+    /* and v is v(tau) = vseg (1 +- r (tau/T - 1/2)): eps /= that, to first
+     * order eps -= eps r (2 tau - T) / 2T (eps < 2^26, r_q15 <= 2^16) */
+    uint64_t k = (eps * r_q15) >> 15;
+    uint64_t fix = (k * (uint32_t)(2u * t > T ? 2u * t - T : T - 2u * t)) / (2u * T);
+    if ((2u * t > T) == accel)
+        eps = eps > fix ? eps - fix : 0;
+    else
+        eps += fix;
+    if (accel)
+        return tau + eps;
+    return tau > eps ? tau - eps : 0;
+}
+
+/* The block's cached speeds (isqrt only when the plan changed them). */
+static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
+{
+    if (b->v2_nom != sg->c_v2_nom) {
+        sg->c_v2_nom = b->v2_nom;
+        sg->vn_q4 = pk_isqrt64(b->v2_nom << 4);   /* Q4 speed^2 * 16 = (v Q4)^2 */
+    }
+    if (b->v2_exit != sg->c_v2_exit) {
+        sg->c_v2_exit = b->v2_exit;
+        sg->ve_q4 = pk_isqrt64(b->v2_exit << 4);
+    }
 }
 
 void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,
@@ -137,11 +121,12 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     sg->tick_hz = tick_hz;
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
-    sg->chunk_ticks_max = tick_hz / 500u; /* 2 ms */
-    if (sg->chunk_ticks_max > PK_SG_CHUNK_TICKS_MAX)
-        sg->chunk_ticks_max = PK_SG_CHUNK_TICKS_MAX;
-    if (sg->chunk_ticks_max == 0)
-        sg->chunk_ticks_max = 1;
+    sg->seg_max = tick_hz / 500u; /* 2 ms */
+    if (sg->seg_max > PK_SG_CHUNK_TICKS_MAX)
+        sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
+    if (sg->seg_max < 16u)
+        sg->seg_max = 16u;
+    sg->tick_q12 = (uint64_t)tick_hz << 12;
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
@@ -176,6 +161,8 @@ static void ring_commit(struct pk_stepgen *sg)
 void pk_sg_set_hold(struct pk_stepgen *sg, bool hold)
 {
     sg->hold = hold;
+    if (hold)
+        sg->off_plan = true;
     if (!hold)
         sg->held = false;
 }
@@ -184,171 +171,238 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
                       uint32_t *rem_q8)
 {
     struct pk_block *b = pk_mq_at(q, 0);
-    *v2_now = sg->v2;
     *rem_q8 = 0;
-    if (b != NULL && b->type == PK_BLK_LINE)
-        *rem_q8 = b->len_q8 - (sg->prep_active ? sg->s_q8 : 0u);
+    if (b == NULL || b->type != PK_BLK_LINE) {
+        *v2_now = sg->v2;
+        return;
+    }
+    if (sg->prep_active && sg->off_plan) {
+        /* a hold stopped or slowed it inside the block: plan from where it is */
+        *v2_now = sg->v2;
+        *rem_q8 = b->len_q8 - sg->s_q8;
+        return;
+    }
+    /* Following the plan: report the block's start, not the position the
+     * main loop happens to have reached. The segments round their speeds and
+     * lengths, so the forward pass from a mid-block point would give exits a
+     * few LSB apart depending on when the replan ran, and the output would
+     * depend on the sender's timing. */
+    *v2_now = sg->prep_active ? sg->v2_blk : sg->v2;
+    *rem_q8 = b->len_q8;
 }
 
-/* Fit I, A, B to first interval e1, last en and total S over n events
- * (ticks Q16; every interval of a chunk of two or more events is below
- * PK_SG_CHUNK_TICKS_MAX ticks, so all three fit 32 bits). */
-struct fit3 { int64_t c0, c1, c2; };
-
-static void fit(struct fit3 *c, uint32_t n, int64_t e1, int64_t en, int64_t S)
+/* Publish n events: the first `first` ticks Q16 after the previous event,
+ * then the intervals c1 + A, c1 + 2A, ... (the ramp of one segment). Several
+ * slots when n exceeds PK_SG_MAX_EVENTS or the first interval exceeds the
+ * recurrence's range; each goes on where the last one stopped. */
+static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
+                        uint32_t v_um_s)
 {
-    int64_t N = n;
-    c->c0 = c->c1 = c->c2 = 0;
-    if (e1 < 1)
-        e1 = 1;
-    if (n == 1) {
-        c->c0 = S < 1 ? 1 : S;
-        return;
-    }
-    c->c0 = e1;
-    if (n == 2) {
-        c->c1 = S - 2 * e1;
-        return;
-    }
-    int64_t X = en - e1, Y = S - N * e1;
-    int64_t den = N * (N - 1) * (N - 2);
-    c->c2 = pk_div_round64(6 * N * X - 12 * Y, den);
-    c->c1 = pk_div_round64(X - c->c2 * (N - 1) * (N - 2) / 2, N - 1);
-    /* Re-verify: every interval of the recurrence must be positive (the
-     * chunk sizing keeps the speed change within ~6%, so the quadratic is
-     * nearly flat; this only guards against a pathological fit). Otherwise
-     * fall back to the linear fit (first interval and total). */
-    int64_t I = c->c0, A = c->c1;
-    for (uint32_t j = 0; j < n; j++) {
-        if (I < 1) {
-            c->c2 = 0;
-            c->c1 = (2 * (S - N * e1)) / (N * (N - 1));
-            return;
+    while (n > 0) {
+        struct pk_sg_chunk *c = ring_slot(sg);
+        if (c == NULL)
+            return false;  /* (the caller checked the room) */
+        c->v_um_s = v_um_s;
+        if (first >= ((uint64_t)1 << 30)) {
+            /* one event after a long interval: whole ticks + Q16 fraction */
+            c->kind = PK_SGC_SLOW;
+            uint64_t t = first >> 16;
+            c->u.ticks = (uint32_t)(t > UINT32_MAX ? UINT32_MAX : t);
+            c->n = (uint16_t)(first & 0xffffu);
+            ring_commit(sg);
+            n--;
+            c1 += A;
+            first = (uint64_t)(int64_t)c1;
+            continue;
         }
-        I += A;
-        A += c->c2;
+        uint32_t k = n > PK_SG_MAX_EVENTS ? PK_SG_MAX_EVENTS : n;
+        c->kind = PK_SGC_STEPS;
+        c->n = (uint16_t)k;
+        c->u.st.c0 = (int32_t)first;
+        c->u.st.c1 = c1;
+        c->u.st.c2 = A;
+        ring_commit(sg);
+        n -= k;
+        c1 += (int32_t)k * A;
+        first = (uint64_t)(int64_t)c1;
     }
+    return true;
 }
 
-static int64_t fit_sum(const struct fit3 *c, uint32_t n)
+/* Cut the next segment of the tail LINE block b. Returns false if none
+ * (held, or the ring has no room for it). */
+static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
 {
-    int64_t N = n;
-    return N * c->c0 + c->c1 * (N * (N - 1) / 2) + c->c2 * (N * (N - 1) * (N - 2) / 6);
-}
-
-/* Cut the next chunk of the tail LINE block b. Returns false if none (held). */
-static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_chunk *c)
-{
-    if (sg->e == 0 && !sg->blk_sent) {
+    if (!sg->blk_sent) {
         /* the block's own slot first: directions, spindle, Bresenham */
+        struct pk_sg_chunk *c = ring_slot(sg);
+        if (c == NULL)
+            return false;
         c->kind = PK_SGC_BLOCK;
         c->arg = b->dir_mask;
         c->spindle = b->spindle;
         memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
         memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
         c->u.blk.period = b->period;
+        ring_commit(sg);
         sg->blk_sent = true;
-        return true;
+        sg->v2_blk = sg->v2;
+        sg->off_plan = sg->hold;
+        /* The segment: 2 ms, or shorter so that at twice the nominal speed
+         * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
+         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M. */
+        blk_speeds(sg, b);
+        uint32_t seg = sg->seg_max;
+        /* (an event is one step of the dominant axis, at most 1 mm * sqrt(3)
+         * at 1 step/mm: d64 < 2^29 µm Q8, and d64 * tick_hz < 2^61) */
+        uint64_t d64 = ((uint64_t)PK_SG_MAX_EVENTS * b->len_q8) / b->events;
+        uint64_t lim = (d64 * sg->tick_hz) / (16u * (2u * (uint64_t)sg->vn_q4 + 1u));
+        if (lim < seg)
+            seg = lim < 16u ? 16u : (uint32_t)lim;
+        sg->seg_ticks = seg;
+        /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz: g in Q16 */
+        sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz); /* < 2^41 / 1 MHz */
+        /* speed change per segment: a (µm/s^2) * seg / tick_hz, Q4 */
+        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+        if (sg->dv_q4 == 0)
+            sg->dv_q4 = 1;
     }
-    struct profile p;
-    p.s0 = sg->s_q8;
-    p.L = b->len_q8;
-    p.v2_0 = sg->v2;
-    p.v2_nom = b->v2_nom;
-    p.v2_exit = b->v2_exit;
-    p.a = b->accel;
-    p.hold = sg->hold;
-    const uint32_t N = b->events, e = sg->e;
-
-    uint32_t n_max = N - e;
-    if (n_max > PK_SG_MAX_EVENTS)
-        n_max = PK_SG_MAX_EVENTS;
-    if (p.hold) {
-        uint64_t st = p.s0 + ds_for(p.a, p.v2_0);
-        if (st < p.L) {
-            /* last event at or before the stop point */
-            uint64_t kst = (st * N) / p.L;
-            while (kst > e && ev_s(b, (uint32_t)kst) > st)
-                kst--;
-            if (kst <= e) {
-                sg->v2 = 0;
-                sg->held = true;
-                return false;
-            }
-            if (kst - e < n_max)
-                n_max = (uint32_t)(kst - e);
+    /* room for the segment's events: at most a few slots */
+    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+        return false;
+    blk_speeds(sg, b);
+    const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4, dv = sg->dv_q4;
+    const uint64_t two_a = 2u * (uint64_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8 */
+    const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
+    const uint64_t v02 = sq64(v0), ve2 = sq64(ve);
+    /* the speed^2 the end of the block allows here: the line
+     * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
+    const uint64_t line0 = ve2 + two_a * (L - s0);
+    uint32_t v1, ds;
+    if (sg->hold || (v02 >= line0 && v0 > ve) || v0 > sg->vn_q4) {
+        /* decelerate: towards the exit (on the line), the nominal (an
+         * override lowered it) or rest (a hold). A whole segment, or the
+         * part of one that reaches the target speed: from v0 to vt at a,
+         * (v0^2 - vt^2) / 2a, in (v0 - vt) / a. */
+        uint32_t vt = sg->hold ? 0u : (v0 > sg->vn_q4 && !(v02 >= line0) ? sg->vn_q4 : ve);
+        if (sg->hold && v0 == 0) {
+            sg->held = true;
+            return false;
+        }
+        if (v0 > vt + dv) {
+            v1 = v0 - dv;
+            ds = (uint32_t)(((uint64_t)(v0 + v1) * sg->g_q24) >> 24);
+        } else {
+            v1 = vt;
+            uint64_t d = (v02 - sq64(vt)) / (two_a ? two_a : 1u);
+            ds = d > L - s0 ? L - s0 : (uint32_t)d;
+        }
+    } else {
+        /* below the line: accelerate towards the nominal, or cruise; a
+         * segment that would end above the line ends on it instead */
+        v1 = v0 + dv < sg->vn_q4 ? v0 + dv : sg->vn_q4;
+        if (v1 == 0)
+            v1 = dv; /* at rest with a zero nominal: cannot happen, but move */
+        ds = (uint32_t)(((uint64_t)(v0 + v1) * sg->g_q24) >> 24);
+        if (ds == 0)
+            ds = 1;
+        uint32_t se = s0 + ds < L ? s0 + ds : L;
+        if (sq64(v1) > ve2 + two_a * (L - se)) {
+            /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
+             * line: accelerate (or cruise) until there */
+            uint64_t d;
+            if (v1 > v0)
+                d = (line0 - v02) / (2u * two_a);               /* the two lines meet */
+            else
+                d = (line0 - v02) / (two_a ? two_a : 1u);       /* cruise meets the line */
+            if (d > L - s0)
+                d = L - s0;
+            ds = (uint32_t)d;
+            if (ds == 0)
+                ds = 1;
+            v1 = v1 > v0 ? pk_isqrt64(v02 + two_a * ds) : v0;
+            if (v1 > sg->vn_q4)
+                v1 = sg->vn_q4;
         }
     }
-    /* stay inside one phase: up to the first breakpoint after s0 */
-    uint32_t bp[2];
-    unsigned nb = prof_breaks(&p, bp);
-    uint32_t n = n_max;
-    for (unsigned i = 0; i < nb; i++) {
-        if (bp[i] <= p.s0)
-            continue;
-        uint64_t kb = ((uint64_t)bp[i] * N) / p.L;
-        uint32_t nk = kb > e ? (uint32_t)(kb - e) : 1u;
-        if (nk < n)
-            n = nk;
-        break;
+    if (s0 + ds >= L) {
+        /* the block ends inside this segment: end exactly there, at the speed
+         * the constant acceleration reaches there */
+        ds = L - s0;
+        uint64_t e2 = v02;
+        if (v1 > v0)
+            e2 += two_a * ds;
+        else if (v1 < v0)
+            e2 = e2 > two_a * ds ? e2 - two_a * ds : 0;
+        uint32_t vl = pk_isqrt64(e2);
+        if (v1 > v0 && vl > v1)
+            vl = v1;
+        if (v1 < v0 && vl < v1)
+            vl = v1;
+        v1 = vl;
     }
-    /* speed may change by at most ~6% (v^2 by 1/8) within a chunk */
-    pk_v2_q4_t v2_here = prof_v2(&p, p.s0);
-    pk_v2_q4_t v2_next = prof_v2(&p, ev_s(b, e + 1));
-    if (v2_next != v2_here) {
-        uint64_t ds = ds_for(p.a, v2_here / 8u);
-        uint64_t nk = (ds * N) / p.L;
-        if (nk < 1)
-            nk = 1;
-        if (nk < n)
-            n = (uint32_t)nk;
-    }
-    /* and last at most chunk_ticks_max (approximately) */
-    uint32_t vq = v_q2(v2_next > v2_here ? v2_next : v2_here);
-    {
-        /* events in T ticks at speed v: T * v / (tick_hz * d); d = L/N */
-        uint64_t num = (uint64_t)sg->chunk_ticks_max * vq * N;       /* < 2^16*2^22*2^25 */
-        uint64_t den = (uint64_t)sg->tick_hz * 4u * ((uint64_t)p.L >> 8 ? (uint64_t)p.L >> 8 : 1u);
-        uint64_t nk = num / den;
-        if (nk < 1)
-            nk = 1;
-        if (nk < n)
-            n = (uint32_t)nk;
-    }
-    if (n < 1)
-        n = 1;
-
-    uint32_t sa = p.s0, s1 = ev_s(b, e + 1), sl = ev_s(b, e + n - 1), sb = ev_s(b, e + n);
-    int64_t e1 = prof_time(&p, sg->tick_hz, sa, s1);
-    if (n > 1 && e1 >= ((int64_t)PK_SG_CHUNK_TICKS_MAX << 16)) {
-        /* the estimate said several events, the exact time says one is long
-         * already: cut at one (the slow path below) */
-        n = 1;
-        sl = sa;
-        sb = s1;
-    }
-    int64_t en = n > 1 ? prof_time(&p, sg->tick_hz, sl, sb) : e1;
-    int64_t S = n > 1 ? prof_time(&p, sg->tick_hz, sa, sb) : e1;
-    struct fit3 f;
-    fit(&f, n, e1 - sg->lag_q16, en, S - sg->lag_q16);
-    if (n == 1 && f.c0 >= ((int64_t)1 << 30)) {
-        /* one event after a long interval: whole ticks + a Q16 fraction */
-        c->kind = PK_SGC_SLOW;
-        c->u.ticks = (uint32_t)(f.c0 >> 16 > UINT32_MAX ? UINT32_MAX : f.c0 >> 16);
-        c->n = (uint16_t)(f.c0 & 0xffff);
-        sg->lag_q16 += (((int64_t)c->u.ticks << 16) | c->n) - S;
+    /* The segment's duration from its length (not the nominal seg_ticks: ds
+     * is rounded down, and the time must be the time of the distance, or
+     * the carry would put the rounding into the interval across the next
+     * boundary). Every ds here is at most one segment's travel, < 2^20 µm
+     * Q8, so 2 ds tick_q12 < 2^57. */
+    const uint32_t vsum = (v0 + v1) ? v0 + v1 : 1u;
+    const uint64_t seg_q16 = time_q16(sg, 2u * ds, vsum);
+    uint32_t s1 = s0 + ds;
+    /* the events in (s0, s1] at the segment's constant speed */
+    uint32_t e0 = sg->e, e1 = ev_upto(b, s1);
+    uint32_t n = e1 > e0 ? e1 - e0 : 0;
+    uint32_t vrep = (uint32_t)(((uint64_t)v1 + 8u) >> 4);
+    if (n > 0) {
+        /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
+         * halves around the mean) */
+        const uint32_t dv_abs = v0 > v1 ? v0 - v1 : v1 - v0;
+        const uint32_t r_q15 = div64_32((uint64_t)dv_abs << 16, vsum);
+        uint64_t t_first = at_time(sg, ev_s(b, e0 + 1u) - s0, vsum, seg_q16, r_q15, v1 > v0);
+        uint64_t t_last = at_time(sg, ev_s(b, e1) - s0, vsum, seg_q16, r_q15, v1 > v0);
+        if (t_last > seg_q16)
+            t_last = seg_q16;
+        if (t_first > t_last)
+            t_first = t_last;
+        /* The n - 1 intervals after the first: their mean is span / (n - 1);
+         * they ramp with the speed, the interval being inversely
+         * proportional to it: from the mean, the change across the segment
+         * is about mean (v0 - v1) / vseg (at most the mean either way, so
+         * that every interval stays positive); the segment holds T / mean
+         * intervals (a fraction: not n, which counts whole events), so
+         * A = change mean / T per event. c1 is rounded so that the ramp never sums to more than the
+         * span; what is left goes to the carry, so time stays exact. */
+        int32_t c1 = 0, A = 0;
+        uint64_t rem = 0;
+        if (n > 1) {
+            uint64_t span = t_last - t_first;
+            uint32_t mean = div64_32(span, n - 1u);
+            if (n > 2 && v0 != v1) {
+                uint32_t ch = (uint32_t)(((uint64_t)mean * r_q15) >> 15);
+                if (ch > mean)
+                    ch = mean;
+                int32_t a = (int32_t)div64_32((uint64_t)ch * mean, (uint32_t)seg_q16 | 1u);
+                A = v1 > v0 ? -a : a;
+            }
+            /* c1 = mean - ceil(A n / 2) */
+            int64_t an = (int64_t)A * (int64_t)n;
+            int64_t q = an >= 0 ? (an + 1) / 2 : -((-an) / 2);
+            c1 = (int32_t)((int64_t)mean - q);
+            int64_t sum = (int64_t)(n - 1u) * c1 + (int64_t)A * (int64_t)((n * (n - 1u)) / 2u);
+            rem = span - (uint64_t)sum;
+        }
+        if (!emit_events(sg, n, sg->carry_q16 + t_first, c1, A, vrep))
+            return false;
+        sg->carry_q16 = seg_q16 - t_last + rem;
     } else {
-        c->kind = PK_SGC_STEPS;
-        c->n = (uint16_t)n;
-        c->u.st.c0 = (int32_t)f.c0;
-        c->u.st.c1 = (int32_t)f.c1;
-        c->u.st.c2 = (int32_t)f.c2;
-        sg->lag_q16 += fit_sum(&f, n) - S;
+        sg->carry_q16 += seg_q16;
     }
-    sg->v2 = prof_v2(&p, sb);
-    c->v_um_s = v_q2(sg->v2) / 4u;
-    sg->e = e + n;
-    sg->s_q8 = sb;
+    sg->v_q4 = v1;
+    sg->v2 = sq64(v1) >> 4;   /* Q4 speed^2 for the planner */
+    sg->e = e1;
+    sg->s_q8 = s1;
+    if (sg->hold && v1 == 0)
+        sg->held = true;
     return true;
 }
 
@@ -366,10 +420,10 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
                 sg->held = true; /* nothing left: the queue already ends at rest */
             return added;
         }
-        struct pk_sg_chunk *c = ring_slot(sg);
-        if (c == NULL)
-            return added;
         if (b->type != PK_BLK_LINE) {
+            struct pk_sg_chunk *c = ring_slot(sg);
+            if (c == NULL)
+                return added;
             if (sg->hold) {
                 sg->held = true; /* a stop block: we are at rest here */
                 return added;
@@ -385,14 +439,14 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
             pk_mq_pop(q);
             max_blocks--;
             sg->v2 = 0;
-            sg->lag_q16 = 0;
+            sg->v_q4 = 0;
+            sg->carry_q16 = 0;
             added = true;
             continue;
         }
         sg->prep_active = true;
-        if (!prep_line(sg, b, c))
+        if (!prep_line(sg, b))
             return added;
-        ring_commit(sg);
         added = true;
         if (sg->e >= b->events) {
             pk_mq_pop(q);
@@ -425,7 +479,8 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
         sg->e = 0;
         sg->s_q8 = 0;
         sg->v2 = 0;
-        sg->lag_q16 = 0;
+        sg->v_q4 = 0;
+        sg->carry_q16 = 0;
         return 1;
     }
     if (hal->ops->timer_stop)
@@ -445,7 +500,8 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->e = 0;
     sg->s_q8 = 0;
     sg->v2 = 0;
-    sg->lag_q16 = 0;
+    sg->v_q4 = 0;
+    sg->carry_q16 = 0;
     sg->phase = PK_SGP_GAP;
     sg->left = 0;
     sg->mask_due = 0;
@@ -537,10 +593,13 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             }
             break;
         case PK_SGC_STEPS:
+            /* first interval c0, then c1 changing by c2 per event: the
+             * difference c0 - c1 is added once here, so that every event
+             * below is the same two adds */
             sg->left = c->n;
-            sg->I = c->u.st.c0;
-            sg->A = c->u.st.c1;
-            sg->B = c->u.st.c2;
+            sg->next_q16 += (uint64_t)((int64_t)c->u.st.c0 - c->u.st.c1);
+            sg->I = c->u.st.c1;
+            sg->A = c->u.st.c2;
             sg->v_um_s = c->v_um_s;
             break;
         case PK_SGC_SLOW:
@@ -550,7 +609,6 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             sg->next_q16 += ((uint64_t)c->u.ticks << 16) | c->n;
             sg->I = 0;
             sg->A = 0;
-            sg->B = 0;
             sg->v_um_s = c->v_um_s;
             break;
         default: {
@@ -575,7 +633,6 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
     }
     sg->next_q16 += (uint64_t)(int64_t)sg->I;
     sg->I += sg->A;
-    sg->A += sg->B;
     sg->left--;
     uint64_t at = (sg->next_q16 + 0x8000u) >> 16;
     if (at < earliest)

@@ -3,18 +3,18 @@
  * step/dir pulses (timer callback, integer adds only).
  *
  * Main loop (pk_sg_prep): takes the tail block of the motion queue and cuts
- * its trapezoidal speed profile into chunks of consecutive Bresenham events
- * (one event = one step of the block's dominant axis). For each chunk it
- * computes, from the exact kinematics (v^2 linear in distance, so the time
- * between two points of one phase is 2*ds/(v_a+v_b)), the first interval, the
- * last interval and the total, and fits the quadratic recurrence
+ * its trapezoidal speed profile into segments of constant time (2 ms or
+ * less) of constant acceleration (like Grbl's segment buffer, but with the
+ * step intervals ramping inside a segment instead of one speed per segment;
+ * the details are at the top of pk_stepgen.c). A segment's events (one event = one step
+ * of the block's dominant axis) go to the ring as a chunk of the recurrence
  *
- *     t += I;  I += A;  A += B;        (ticks in Q16, 64-bit)
+ *     t += I;  I += A;                 (ticks in Q16, 32-bit terms)
  *
- * that matches all three. Rounding is absorbed: the time the recurrence really
- * produces is tracked and the next chunk starts from it, so timing never
- * drifts and the step counts are exact by construction (Bresenham over the
- * block's event count).
+ * (the first interval, then a linear ramp of intervals that follows the
+ * segment's acceleration). Time is carried exactly from
+ * segment to segment, so timing never drifts, and the step counts are exact
+ * by construction (Bresenham over the block's event count).
  *
  * Timer callback (pk_sg_isr): pops chunks from a single-producer /
  * single-consumer ring (the head is written only by the main loop, the tail
@@ -69,7 +69,9 @@ struct pk_sg_chunk {
     uint16_t n;                /**< STEPS: events (1..PK_SG_MAX_EVENTS); SLOW: the
                                     interval's fraction of a tick, Q16 */
     union {
-        struct { int32_t c0, c1, c2; } st; /**< STEPS: I, A, B of the recurrence, ticks Q16 */
+        struct { int32_t c0, c1, c2; } st; /**< STEPS: the first interval c0, then the
+                                              k-th after it c1 + k c2 (k = 1..n-1);
+                                              ticks Q16 */
         uint32_t ticks;        /**< TOOL/WAIT/SPINDLE: wait; SLOW: whole ticks */
         struct {
             uint32_t inc[PK_AXES];  /**< Bresenham increments (pk_mq.h) */
@@ -97,9 +99,19 @@ struct pk_stepgen {
     bool hold;                 /**< decelerate to a stop, ignoring the plan */
     bool held;                 /**< hold reached speed 0: no more chunks until resume */
     uint32_t e;                /**< events already prepared in the tail block */
-    uint32_t s_q8;             /**< distance of event e from the block start, µm Q8 */
-    pk_v2_q4_t v2;             /**< speed^2 at event e */
-    int64_t lag_q16;           /**< emitted time minus exact time at event e, ticks Q16 */
+    uint32_t s_q8;             /**< prepared distance into the tail block, µm Q8 */
+    uint32_t v_q4;             /**< speed there, µm/s Q4 */
+    pk_v2_q4_t v2;             /**< the same squared, Q4 */
+    pk_v2_q4_t v2_blk;         /**< speed^2 at the tail block's start (what the planner sees) */
+    bool off_plan;             /**< a hold came during the tail block: the planner sees
+                                    the real position instead */
+    uint64_t carry_q16;        /**< time from the last prepared event to s_q8, ticks Q16 */
+    uint32_t seg_ticks;        /**< the tail block's segment duration, ticks */
+    uint32_t g_q24;            /**< a segment's distance per unit of speed sum (µm Q8
+                                    per µm/s Q4, Q24) */
+    uint32_t dv_q4;            /**< speed change per segment at the block's accel, Q4 */
+    uint32_t vn_q4, ve_q4;     /**< the block's nominal and exit speed, Q4 ... */
+    pk_v2_q4_t c_v2_nom, c_v2_exit; /**< ... cached for these planned squares */
 
     /* ---- ring (head: MAIN writes; tail: ISR writes) ---- */
     struct pk_sg_chunk ring[PK_SG_CHUNKS];
@@ -112,8 +124,9 @@ struct pk_stepgen {
     uint16_t spindle_cur;      /**< spindle value as last written */
     uint8_t mask_due;          /**< axes to step at the pending edge */
     uint32_t left;             /**< events left in the current chunk */
-    int32_t I, A, B;           /**< recurrence state, ticks Q16 (chunks are at most
-                                    PK_SG_CHUNK_TICKS_MAX long, so |I| < 2^30) */
+    int32_t I, A;              /**< interval and its change per event, ticks Q16
+                                    (chunks are at most PK_SG_CHUNK_TICKS_MAX long,
+                                    so |I| < 2^30) */
     uint64_t next_q16;         /**< absolute tick (Q16) of the last scheduled event */
     uint64_t earliest;         /**< no step edge before this tick (dir set-up) */
     uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
@@ -124,7 +137,8 @@ struct pk_stepgen {
     volatile uint8_t kill;     /**< reset came during a pulse: the ISR ends it on
                                     time, then stops (finding M2) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
-    uint32_t chunk_ticks_max;  /**< prep: target chunk duration, ticks */
+    uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
+    uint64_t tick_q12;         /**< tick_hz * 2^12 */
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
