@@ -196,7 +196,9 @@ struct pk_gc_block {
  * @param line  the bytes of the line without its terminator (need not be
  *              NUL-terminated; may be NULL when len is 0)
  * @param len   number of bytes (more than PK_GC_LINE_MAX: error 11)
- * @param out   receives the block (fully overwritten, also on error)
+ * @param out   receives the block (words, groups and axis_cmd always set; a
+ *              value or modal field is meaningful only under its words or
+ *              groups bit, the others are left as they were)
  * @return PK_GC_OK or the first error (enum pk_gc_status). A line of only
  *         ignored bytes, comments or "%" parses to an empty block.
  * Calling context: any; reentrant; reads only line[0..len).

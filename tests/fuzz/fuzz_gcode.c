@@ -57,30 +57,38 @@ static void check_block(const struct pk_gc_block *b)
 {
     FZ_CHECK((b->words >> PK_GC_W_COUNT) == 0u, "only defined word bits");
     FZ_CHECK((b->groups >> PK_GC_G_COUNT) == 0u, "only defined group bits");
-    for (unsigned w = 0; w < PK_GC_W_COUNT; w++) {
+    for (unsigned w = 0; w < PK_GC_W_COUNT; w++)
         if (b->words & PK_GC_WBIT(w))
             FZ_CHECK(b->m[w] <= 999999999 && b->m[w] >= -999999999 && b->dec[w] <= 9,
                      "word value: 9 digits, 9 decimals at most");
-        else
-            FZ_CHECK(b->m[w] == 0 && b->dec[w] == 0, "absent words are zero");
-    }
-    FZ_CHECK(b->motion <= PK_GC_MOT_NONE, "motion in range");
-    FZ_CHECK(b->distance <= PK_GC_INCREMENTAL && b->units <= PK_GC_INCH, "distance, units in range");
-    FZ_CHECK(b->path <= PK_GC_PATH_BLEND && b->plane <= PK_GC_PLANE_YZ, "path, plane in range");
-    FZ_CHECK(b->wcs <= 5, "coordinate system in range");
+#define IN_GROUP(g) (b->groups & PK_GC_GBIT(g))
+    FZ_CHECK(!IN_GROUP(PK_GC_G_MOTION) || b->motion <= PK_GC_MOT_NONE, "motion in range");
+    FZ_CHECK((!IN_GROUP(PK_GC_G_DISTANCE) || b->distance <= PK_GC_INCREMENTAL) &&
+             (!IN_GROUP(PK_GC_G_UNITS) || b->units <= PK_GC_INCH), "distance, units in range");
+    FZ_CHECK((!IN_GROUP(PK_GC_G_PATH) || b->path <= PK_GC_PATH_BLEND) &&
+             (!IN_GROUP(PK_GC_G_PLANE) || b->plane <= PK_GC_PLANE_YZ), "path, plane in range");
+    FZ_CHECK(!IN_GROUP(PK_GC_G_WCS) || b->wcs <= 5, "coordinate system in range");
+#undef IN_GROUP
 }
 
-/* Field by field: the struct has padding the parser need not write. */
+/* Equal as far as the block means anything: the masks, each value word
+ * that is present and each modal field whose group is commanded (the parser
+ * leaves the other fields as they were). */
 static int block_eq(const struct pk_gc_block *a, const struct pk_gc_block *b)
 {
-    if (a->words != b->words || a->groups != b->groups || a->nonmodal != b->nonmodal ||
-        a->motion != b->motion || a->distance != b->distance || a->units != b->units ||
-        a->path != b->path || a->stop != b->stop || a->spindle != b->spindle ||
-        a->plane != b->plane || a->feedmode != b->feedmode || a->tlo != b->tlo ||
-        a->wcs != b->wcs || a->coolant != b->coolant || a->axis_cmd != b->axis_cmd)
+    if (a->words != b->words || a->groups != b->groups || a->axis_cmd != b->axis_cmd)
         return 0;
+#define GROUP_FIELD_EQ(g, f) (!(a->groups & PK_GC_GBIT(g)) || a->f == b->f)
+    if (!GROUP_FIELD_EQ(PK_GC_G_NONMODAL, nonmodal) || !GROUP_FIELD_EQ(PK_GC_G_MOTION, motion) ||
+        !GROUP_FIELD_EQ(PK_GC_G_DISTANCE, distance) || !GROUP_FIELD_EQ(PK_GC_G_UNITS, units) ||
+        !GROUP_FIELD_EQ(PK_GC_G_PATH, path) || !GROUP_FIELD_EQ(PK_GC_G_STOP, stop) ||
+        !GROUP_FIELD_EQ(PK_GC_G_SPINDLE, spindle) || !GROUP_FIELD_EQ(PK_GC_G_PLANE, plane) ||
+        !GROUP_FIELD_EQ(PK_GC_G_FEEDMODE, feedmode) || !GROUP_FIELD_EQ(PK_GC_G_TLO, tlo) ||
+        !GROUP_FIELD_EQ(PK_GC_G_WCS, wcs) || !GROUP_FIELD_EQ(PK_GC_G_COOLANT, coolant))
+        return 0;
+#undef GROUP_FIELD_EQ
     for (unsigned w = 0; w < PK_GC_W_COUNT; w++)
-        if (a->m[w] != b->m[w] || a->dec[w] != b->dec[w])
+        if ((a->words & PK_GC_WBIT(w)) && (a->m[w] != b->m[w] || a->dec[w] != b->dec[w]))
             return 0;
     return 1;
 }
