@@ -8,10 +8,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include "sim_job.h"
-
-#define RBUF_SIZE 65536u
 
 static int failf(char *err, size_t errlen, const char *fmt, ...);
 
@@ -55,6 +52,7 @@ static unsigned *cfg_uint(struct pk_sim_cfg *c, int idx)
     case PK_GRBL_S_DEPTH: return &c->depth;
     case PK_GRBL_S_CORNER_DEG: return &c->sharp_deg;
     case PK_GRBL_S_PEN_SETTLE_MS: return &c->pen_settle_ms;
+    case PK_GRBL_S_LASER: return &c->laser_mode;
     default: return NULL;
     }
 }
@@ -105,8 +103,20 @@ void pk_sim_cfg_default(struct pk_sim_cfg *c)
     pk_sim_cfg_from_grbl(c, &s);
     c->axes = PK_AXES;
     c->polyline_feed = 3000.0;
+    c->pen_z_on = 0;
     c->tick_hz = 1000000u;
 }
+
+void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out)
+{
+    out->mode = c->laser_mode ? PK_PEN_LASER : c->pen_z_on ? PK_PEN_Z : PK_PEN_TOOL;
+    out->z_down_um = c->pen_z_mm * 1000.0;
+}
+
+/* $208 (pen-down height): how the simulator reads a drawing; not a firmware
+ * setting. Returns 1 if handled (*rc: 0 or the failure). */
+static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
+                            size_t errlen, unsigned lineno, int *rc);
 
 static int failf(char *err, size_t errlen, const char *fmt, ...)
 {
@@ -117,6 +127,23 @@ static int failf(char *err, size_t errlen, const char *fmt, ...)
         va_end(ap);
     }
     return -1;
+}
+
+static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
+                            size_t errlen, unsigned lineno, int *rc)
+{
+    if (num != 208u)
+        return 0;
+    char *end;
+    double v = strtod(val, &end);
+    if (end == val || *end != '\0' || !isfinite(v)) {
+        *rc = failf(err, errlen, "line %u: $%lu: bad number", lineno, num);
+        return 1;
+    }
+    c->pen_z_on = 1;
+    c->pen_z_mm = v;
+    *rc = 0;
+    return 1;
 }
 
 static const char *grbl_error_text(int code)
@@ -178,6 +205,16 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
             continue;
         if (*s != '$' || !isdigit((unsigned char)s[1]))
             return failf(err, errlen, "line %u: expected $N=value", lineno);
+        {
+            char *eq = NULL;
+            unsigned long num = strtoul(s + 1, &eq, 10);
+            int src;
+            if (eq != NULL && *eq == '=' && sim_only_setting(c, num, eq + 1, err, errlen, lineno, &src)) {
+                if (src != 0)
+                    return src;
+                continue;
+            }
+        }
         /* The firmware's own parser, table and rules: the same numbers,
          * ranges and number syntax as `$N=value` sent to the Grbl engine. */
         struct pk_grbl_settings set;
@@ -321,16 +358,6 @@ char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline)
 /* Next raw byte of the source, or -1 at its end. */
 static int src_byte(struct pk_sim_job *j)
 {
-    if (j->f) {
-        if (j->pos >= j->len) {
-            j->len = fread(j->rbuf, 1, RBUF_SIZE, j->f);
-            j->pos = 0;
-            if (j->len == 0)
-                return -1;
-        }
-        j->bytes_in++;
-        return (unsigned char)j->rbuf[j->pos++];
-    }
     if (j->pos >= j->len)
         return -1;
     j->bytes_in++;
@@ -339,6 +366,10 @@ static int src_byte(struct pk_sim_job *j)
 
 static void fifo_push(struct pk_sim_job *j, unsigned line)
 {
+    /* the engine numbers the lines it receives (1, 2, ...): remember the
+     * source line of the latest ones, for the observer */
+    j->lmap[j->eng_lines % (sizeof j->lmap / sizeof j->lmap[0])] = line;
+    j->eng_lines++;
     if (j->fifo_n < sizeof j->fifo / sizeof j->fifo[0]) {
         j->fifo[(j->fifo_head + j->fifo_n) % (sizeof j->fifo / sizeof j->fifo[0])] = line;
         j->fifo_n++;
@@ -432,6 +463,14 @@ static int job_read(void *ctx, uint8_t *buf, size_t len)
     struct pk_sim_job *j = ctx;
     if (len == 0)
         return 0;
+    /* a new line only while the programmed path's observer has room (the
+     * engine reads one byte at a time; a line ends at LF or CR) */
+    int line_start = !j->midline && (j->lbuf_i >= j->lbuf_n || j->lbuf_i == 0 ||
+                                     j->lbuf[j->lbuf_i - 1] == '\n');
+    if (line_start && j->obs.room != NULL && j->obs.room(j->obs.arg) == 0u)
+        return 0;
+    if (j->lbuf_i < j->lbuf_n)
+        len = 1; /* generated lines go out a byte at a time too */
     if (j->lbuf_i >= j->lbuf_n && !j->input_done && j->polyline)
         (void)next_poly_line(j);
     if (j->lbuf_i < j->lbuf_n) {
@@ -510,28 +549,9 @@ static int job_write(void *ctx, const uint8_t *buf, size_t len)
 
 /* ---- the job's machine ops: the adapter, recording the commanded path ----------- */
 
-static void record_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], int rapid)
+/* A move the machine took: the job's idea of where the tool is. */
+static void took_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES])
 {
-    if (j->n_moves == j->cap_moves) {
-        size_t cap = j->cap_moves ? j->cap_moves * 2u : 1024u;
-        struct pk_sim_move *p = realloc(j->moves, cap * sizeof *p);
-        if (p == NULL)
-            return;
-        j->moves = p;
-        j->cap_moves = cap;
-    }
-    struct pk_sim_move *mv = &j->moves[j->n_moves++];
-    mv->a[0] = j->cur[0];
-    mv->a[1] = j->cur[1];
-    mv->b[0] = to[0];
-    mv->b[1] = to[1];
-    mv->rapid = (uint8_t)rapid;
-    mv->pen = j->pen;
-}
-
-void pk_sim_job_record_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], int rapid)
-{
-    record_move(j, to, rapid);
     memcpy(j->cur, to, sizeof j->cur);
     j->move_requests++;
 }
@@ -550,7 +570,7 @@ static int jm_move(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, in
         pk_um_t p[PK_AXES];
         memset(p, 0, sizeof p);
         memcpy(p, t, sizeof(pk_um_t) * (PK_AXES < PK_GC_AXES ? PK_AXES : PK_GC_AXES));
-        pk_sim_job_record_move(job_of(ctx), p, rapid);
+        took_move(job_of(ctx), p);
     }
     return rc;
 }
@@ -564,7 +584,7 @@ static int jm_move_chord(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t fe
         pk_um_t p[PK_AXES];
         memset(p, 0, sizeof p);
         memcpy(p, t, sizeof(pk_um_t) * (PK_AXES < PK_GC_AXES ? PK_AXES : PK_GC_AXES));
-        pk_sim_job_record_move(job_of(ctx), p, 0);
+        took_move(job_of(ctx), p);
     }
     return rc;
 }
@@ -608,6 +628,59 @@ static void job_ops(struct pk_grbl_machine_ops *o)
     o->reset = jm_reset;
 }
 
+/* ---- the programmed path: the engine's primitives as exact ones ---------------------- */
+
+void pk_sim_prim_from_grbl(const struct pk_grbl_prim *g, const struct pk_pen_cfg *pen,
+                           struct pk_path_prim *out)
+{
+    double a[3] = { 0, 0, 0 }, b[3] = { 0, 0, 0 };
+    for (int i = 0; i < PK_GC_AXES && i < 3; i++) {
+        a[i] = (double)g->start[i];
+        b[i] = (double)g->end[i];
+    }
+    pk_path_line(out, a, b);
+    if (g->kind == PK_GRBL_PRIM_ARC) {
+        enum pk_path_plane pl = g->a0 == 2 ? PK_PLANE_ZX : g->a0 == 1 ? PK_PLANE_YZ : PK_PLANE_XY;
+        double centre[2] = { g->centre_q8[0] / 256.0, g->centre_q8[1] / 256.0 };
+        struct pk_path_prim arc;
+        if (pk_path_arc(&arc, a, b, centre, pl, g->cw, 0) == 0) {
+            /* the sweep the firmware flattens (binary angle: 2^32 a turn) */
+            double sw = (double)g->sweep * (6.283185307179586 / 4294967296.0);
+            arc.sweep = g->cw ? -sw : sw;
+            *out = arc;
+        }
+    } else if (g->kind == PK_GRBL_PRIM_CUBIC || g->kind == PK_GRBL_PRIM_QUAD) {
+        int n = g->kind == PK_GRBL_PRIM_QUAD ? 1 : 2;
+        out->kind = n == 1 ? PK_PATH_QUAD : PK_PATH_CUBIC;
+        for (int k = 0; k < n; k++) {
+            out->c[k][0] = (double)g->ctrl[k][0];
+            out->c[k][1] = (double)g->ctrl[k][1];
+            out->c[k][2] = a[2]; /* G5/G5.1 are XY curves */
+        }
+    }
+    int rapid = g->kind == PK_GRBL_PRIM_RAPID;
+    out->rapid = (uint8_t)rapid;
+    out->drawn = (uint8_t)pk_pen_prog_drawn(pen, g->tool_on, (double)g->spindle_s / 1000.0, rapid,
+                                            a[2], b[2]);
+}
+
+/* The engine's observer, with the source line of the engine's line. */
+static void job_observe(void *ctx, const struct pk_grbl_prim *g)
+{
+    struct pk_sim_job *j = ctx;
+    if (j->obs.on_prim != NULL) {
+        struct pk_path_prim p;
+        pk_sim_prim_from_grbl(g, &j->pen_cfg, &p);
+        uint32_t k = g->line; /* the engine's line number: 1 = the first one given */
+        size_t cap = sizeof j->lmap / sizeof j->lmap[0];
+        p.line = k > 0u && k <= j->eng_lines && j->eng_lines - (k - 1u) <= cap ? j->lmap[(k - 1u) % cap]
+                                                                                 : j->src_line;
+        j->obs.on_prim(j->obs.arg, &p);
+    }
+    if (j->raw_obs != NULL)
+        j->raw_obs(j->raw_obs_ctx, g);
+}
+
 /* ---- the job --------------------------------------------------------------------- */
 
 static void job_common(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg)
@@ -616,6 +689,7 @@ static void job_common(struct pk_sim_job *j, struct pk_machine *m, const struct 
     j->m = m;
     j->cfg = cfg;
     pk_machine_position_um(m, j->cur);
+    pk_sim_cfg_pen(cfg, &j->pen_cfg);
 }
 
 static void job_start_engine(struct pk_sim_job *j)
@@ -641,8 +715,7 @@ static void job_start_engine(struct pk_sim_job *j)
         snprintf(j->alarm_text, sizeof j->alarm_text, "the settings were refused by the machine");
         j->finished = 1;
     }
-    if (j->obs)
-        pk_grbl_set_observer(&j->g, j->obs, j->obs_ctx);
+    pk_grbl_set_observer(&j->g, job_observe, j);
     if (pk_grbl_state(&j->g) == PK_GRBL_ALARM) {
         /* $22=1 locks at power-on: the operator unlocks it */
         give(j, "$X", 2, 0);
@@ -680,88 +753,15 @@ void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk
     job_start_engine(j);
 }
 
-int pk_sim_job_init_file(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
-                         FILE *f)
-{
-    job_common(j, m, cfg);
-    j->rbuf = malloc(RBUF_SIZE);
-    if (j->rbuf == NULL)
-        return -1;
-    /* A pipe cannot be read twice: copy it to a temporary file first. */
-    if (fseek(f, 0, SEEK_SET) != 0) {
-        FILE *t = tmpfile();
-        if (t == NULL)
-            return -1;
-        size_t k;
-        while ((k = fread(j->rbuf, 1, RBUF_SIZE, f)) > 0)
-            if (fwrite(j->rbuf, 1, k, t) != k) {
-                fclose(t);
-                return -1;
-            }
-        if (ferror(f) || fflush(t) != 0 || fseek(t, 0, SEEK_SET) != 0) {
-            fclose(t);
-            return -1;
-        }
-        j->own_f = t;
-        f = t;
-    }
-    struct stat stt;
-    if (fstat(fileno(f), &stt) == 0)
-        j->file_size = (uint64_t)stt.st_size;
-    /* first pass: a polyline file? (streaming; stops at the first other line) */
-    int any = 0, poly = 1;
-    char line[512];
-    size_t n = 0;
-    int c, over = 0;
-    while (poly && (c = fgetc(f)) != EOF) {
-        if (c == '\n') {
-            double x, y;
-            int r = over ? -1 : poly_line(line, n, &x, &y);
-            if (r < 0)
-                poly = 0;
-            any |= r > 0;
-            n = 0;
-            over = 0;
-        } else if (n < sizeof line) {
-            line[n++] = (char)c;
-        } else {
-            over = 1;
-        }
-    }
-    if (poly && n > 0) {
-        double x, y;
-        int r = over ? -1 : poly_line(line, n, &x, &y);
-        if (r < 0)
-            poly = 0;
-        any |= r > 0;
-    }
-    if (ferror(f) || fseek(f, 0, SEEK_SET) != 0)
-        return -1;
-    j->f = f;
-    j->polyline = poly && any;
-    if (j->polyline)
-        give(j, "G21 G90", 7, 0);
-    job_start_engine(j);
-    return 0;
-}
-
 void pk_sim_job_set_observer(struct pk_sim_job *j, pk_grbl_observer_fn fn, void *ctx)
 {
-    j->obs = fn;
-    j->obs_ctx = ctx;
-    pk_grbl_set_observer(&j->g, fn, ctx);
+    j->raw_obs = fn;
+    j->raw_obs_ctx = ctx;
 }
 
 void pk_sim_job_free(struct pk_sim_job *j)
 {
-    free(j->moves);
-    j->moves = NULL;
-    j->n_moves = j->cap_moves = 0;
-    free(j->rbuf);
-    j->rbuf = NULL;
-    if (j->own_f)
-        fclose(j->own_f);
-    j->own_f = NULL;
+    (void)j; /* nothing on the heap: the path goes to the observer */
 }
 
 void pk_sim_job_poll_machine(struct pk_sim_job *j)
@@ -841,62 +841,4 @@ int pk_sim_job_main(void *arg, uint64_t now)
         }
     }
     return 1;
-}
-
-/* Distance from (px, py) to the segment of move k, µm. */
-static double seg_dist(const struct pk_sim_move *mv, double px, double py)
-{
-    double ax = mv->a[0], ay = mv->a[1], bx = mv->b[0], by = mv->b[1];
-    double dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
-    double t = l2 > 0.0 ? ((px - ax) * dx + (py - ay) * dy) / l2 : 0.0;
-    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-    double ex = ax + t * dx - px, ey = ay + t * dy - py;
-    return sqrt(ex * ex + ey * ey);
-}
-
-double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y)
-{
-    if (j->n_moves == 0u)
-        return -1.0;
-    size_t c = *k < j->n_moves ? *k : j->n_moves - 1u;
-    size_t lo = c >= 64u ? c - 64u : 0u, hi = c + 64u < j->n_moves ? c + 64u : j->n_moves;
-    double best = INFINITY;
-    size_t bk = c;
-    for (size_t q = lo; q < hi; q++) {
-        double d = seg_dist(&j->moves[q], x, y);
-        if (d < best) {
-            best = d;
-            bk = q;
-        }
-    }
-    if (best > 2.0 && j->n_moves > hi) {
-        /* The move executing is never far behind the newest one requested
-         * (the request FIFO, the kernel and the motion queue hold a bounded
-         * number of moves): look there too, in case the window was lured
-         * away by a crossing move. */
-        size_t q0 = j->n_moves > 256u ? j->n_moves - 256u : 0u;
-        for (size_t q = q0 > hi ? q0 : hi; q < j->n_moves; q++) {
-            double d = seg_dist(&j->moves[q], x, y);
-            if (d < best) {
-                best = d;
-                bk = q;
-            }
-        }
-    }
-    *k = bk;
-    return best;
-}
-
-double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y, size_t n)
-{
-    if (j->n_moves == 0u)
-        return -1.0;
-    size_t k = 0;
-    double worst = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        double d = pk_sim_job_point_deviation(j, &k, x[i], y[i]);
-        if (d > worst)
-            worst = d;
-    }
-    return worst;
 }

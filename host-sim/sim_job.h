@@ -12,9 +12,10 @@
  * simulated time and the board's POSIX loop (hal/posix/pk_posix_timer.h) on
  * real time.
  *
- * Input in bounded memory: a file is read in 64 KiB pieces as the engine
- * takes bytes (never whole), a line at a time; the job acts as a sender that
- * strips what a sender must not send as program text: bytes >= 0x80 and the
+ * Input: the program's text (a caller may map a file and let the pages
+ * behind `pos` go), handed over a byte at a time as the engine takes it; the
+ * job acts as a sender that strips what a sender must not send as program
+ * text: bytes >= 0x80 and the
  * realtime characters ? ! ~ Ctrl-X (inside comments they would be realtime
  * commands to Grbl), counted in rt_skipped. Each line gets the engine's one
  * answer; error:N answers are listed with their line number (Grbl's codes).
@@ -26,11 +27,12 @@
  * of the firmware's table (pk_grbl.h), so a `$$` dump from `plotkin serve` or
  * a board can be used as is.
  *
- * The job records the commanded path (every move the engine requested from
- * the machine: chords of arcs and curves included, pen state included) for
- * the SVG and the deviation check (that list grows with the program), and
- * passes the programmed primitives (before flattening) to an optional
- * observer (pk_sim_job_set_observer, see pk_grbl_prim in pk_grbl.h).
+ * The job keeps no copy of the path: the engine's observer (pk_grbl_prim in
+ * pk_grbl.h) gives every accepted programmed primitive before flattening, and
+ * the job hands it on as an exact primitive (a line, an arc with its centre
+ * and sweep, a G5/G5.1 Bézier; struct pk_path_prim of sim_path.h) with its
+ * source line number and its pen state (sim_pen.h) to an observer (struct
+ * pk_sim_prim_obs: the programmed path of sim_path.h, the SVG).
  *
  * Host-only code (stdio, heap, doubles for settings and reports).
  */
@@ -44,6 +46,8 @@
 #include "pk_grbl.h"
 #include "pk_grbl_motion.h"
 #include "pk_motion.h"
+#include "sim_path.h"
+#include "sim_pen.h"
 
 /**
  * Machine configuration in user units. `set` holds every `$N` setting in the
@@ -71,7 +75,14 @@ struct pk_sim_cfg {
     double polyline_feed;          /**< feed for plain polyline files, mm/min, default 3000 */
     int force_smoothing;           /**< 1: ignore G61/G64 in programs (keep $200/$12) */
     uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
+    /* How the program draws (sim_pen.h), for the programmed path and the SVG. */
+    unsigned laser_mode;           /**< $32 Grbl laser mode: 1 = G1 with M3/M4 and S > 0 burns, G0 never */
+    int pen_z_on;                  /**< 1: the pen is down at Z <= pen_z_mm ($208=h; M3/M5 then ignored) */
+    double pen_z_mm;               /**< $208 pen-down height, mm (sim only: not a firmware setting) */
 };
+
+/** The pen model of c (sim_pen.h): laser if $32=1, else Z if $208 is set, else the tool line. */
+void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out);
 
 /** A typical pen plotter: the firmware's `$N` defaults (pk_grbl_settings_default). */
 void pk_sim_cfg_default(struct pk_sim_cfg *c);
@@ -106,12 +117,25 @@ int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *out, cha
  */
 char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline);
 
-/** One commanded move (XY, µm). */
-struct pk_sim_move {
-    pk_um_t a[2], b[2];
-    uint8_t rapid;   /**< G0 */
-    uint8_t pen;     /**< pen down while it runs */
+/**
+ * Observer of the programmed path. on_prim gets every accepted move as one
+ * primitive (struct pk_path_prim: a line, an arc, or the exact G5/G5.1
+ * Bézier; `drawn` from sim_pen.h, `line` the source line number), in program
+ * order, when its execution starts. room, if not NULL, says how many more
+ * primitives the observer can take without losing any: the job hands the
+ * engine no further line while it is 0 (the machine goes on running, which
+ * makes room). MAIN.
+ */
+struct pk_sim_prim_obs {
+    void (*on_prim)(void *arg, const struct pk_path_prim *p);
+    size_t (*room)(void *arg);
+    void *arg;
 };
+
+/** The exact primitive of an engine primitive (µm; Z 0 without a Z axis),
+ *  drawn per pen. line is left to the caller. */
+void pk_sim_prim_from_grbl(const struct pk_grbl_prim *g, const struct pk_pen_cfg *pen,
+                           struct pk_path_prim *out);
 
 struct pk_sim_gc_error { unsigned line; int code; };
 
@@ -125,11 +149,8 @@ struct pk_sim_job {
     uint8_t nvm_buf[PK_GRBL_NVM_BYTES];
     struct pk_grbl_ram_nvm ram;
     /* input (private) */
-    FILE *f;                       /**< file source, or NULL for text */
-    FILE *own_f;                   /**< a temporary copy of a pipe (closed by free) */
     const char *text;
-    size_t len, pos;               /**< text source, or the read buffer's fill/position */
-    char *rbuf;                    /**< file read buffer (heap, 64 KiB) */
+    size_t len, pos;               /**< the program and how far it has been read (bytes) */
     uint64_t bytes_in, file_size;
     int polyline, in_stroke, eof, tail_done, midline, last_cr;
     char lbuf[300];                /**< generated lines being handed to the engine */
@@ -137,10 +158,14 @@ struct pk_sim_job {
     unsigned src_line;             /**< source lines read */
     unsigned fifo[64];             /**< source line of each line given, not yet answered */
     unsigned fifo_head, fifo_n;
+    unsigned lmap[64];             /**< source line of the engine's latest lines (by its number) */
+    uint32_t eng_lines;            /**< lines given to the engine */
     char ans[24];
     unsigned ans_n;
     pk_um_t cur[PK_AXES];          /**< last requested position */
-    uint8_t pen;                   /**< pen state commanded */
+    uint8_t pen;                   /**< pen state commanded (M3/M4 on) */
+    struct pk_pen_cfg pen_cfg;     /**< how moves are classified as drawn */
+    struct pk_sim_prim_obs obs;    /**< the programmed path's observer (all NULL: none) */
     int input_done, end_sent, finished;
     /* results */
     unsigned long lines, move_requests;
@@ -153,11 +178,9 @@ struct pk_sim_job {
     unsigned long pen_blocks;
     unsigned long rt_skipped;      /**< bytes of the file not sent (>= 0x80, ? ! ~ Ctrl-X) */
     unsigned long pauses;          /**< M0 pauses resumed */
-    struct pk_sim_move *moves;     /**< commanded path (heap) */
-    size_t n_moves, cap_moves;
-    /* observer of programmed primitives */
-    pk_grbl_observer_fn obs;
-    void *obs_ctx;
+    /* a further observer of the engine's primitives, as they are */
+    pk_grbl_observer_fn raw_obs;
+    void *raw_obs_ctx;
     /* progress */
     FILE *progress;                /**< if not NULL: a progress line now and then */
     uint64_t next_progress_tick;
@@ -172,16 +195,8 @@ struct pk_sim_job {
 void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
                      const char *text, size_t len);
 
-/**
- * The same with the program read from f as it runs (f must stay open until
- * pk_sim_job_free; the job does not close it). A polyline file is detected
- * with a first pass and f rewound; a stream that cannot be rewound (a pipe)
- * is first copied to a temporary file. Returns 0, or -1 (I/O error, errno).
- */
-int pk_sim_job_init_file(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
-                         FILE *f);
-
-/** Install an observer of the programmed primitives (see pk_grbl.h). */
+/** Install an observer of the engine's primitives as they are (pk_grbl.h),
+ *  beside j->obs. */
 void pk_sim_job_set_observer(struct pk_sim_job *j, pk_grbl_observer_fn fn, void *ctx);
 
 /** One main-loop iteration (pk_sim_main_fn / pk_posix_main_fn). */
@@ -196,22 +211,5 @@ void pk_sim_job_poll_machine(struct pk_sim_job *j);
 
 /** Count a G-code error (line number, code); the first 32 are listed. */
 void pk_sim_job_note_error(struct pk_sim_job *j, unsigned line, int code);
-
-/** Record a commanded move to `to` (for main loops other than the job's). */
-void pk_sim_job_record_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], int rapid);
-
-/**
- * Largest distance (µm) from any of the points (x[i], y[i]) (µm) to the
- * commanded path (every move, both pen states). Points are matched against a
- * window of moves around the previous match first, and against every move
- * when that finds nothing within 2 µm, so the result is exact and close to
- * linear in the path length. Returns -1 if there are no moves.
- */
-double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y,
-                               size_t n);
-
-/** One point of the same measure, streaming: *k carries the last match
- *  (start at 0). Returns the distance in µm, or -1 if there are no moves. */
-double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y);
 
 #endif
