@@ -512,16 +512,25 @@ static int job_read(void *ctx, uint8_t *buf, size_t len)
     }
 }
 
+/* The number after a "error:"/"ALARM:" prefix of a (n bytes, not NUL-terminated). */
+static int code_after(const char *a, size_t n)
+{
+    int v = 0;
+    for (size_t i = 6; i < n && a[i] >= '0' && a[i] <= '9' && v < 1000; i++)
+        v = v * 10 + (a[i] - '0');
+    return v;
+}
+
 static void answer_line(struct pk_sim_job *j, const char *a, size_t n)
 {
     if (n == 2 && !memcmp(a, "ok", 2)) {
         (void)fifo_pop(j);
     } else if (n > 6 && !memcmp(a, "error:", 6)) {
-        pk_sim_job_note_error(j, fifo_pop(j), atoi(a + 6));
+        pk_sim_job_note_error(j, fifo_pop(j), code_after(a, n));
     } else if (n > 6 && !memcmp(a, "ALARM:", 6)) {
         if (j->alarms == 0u) {
-            j->alarm = -atoi(a + 6);
-            snprintf(j->alarm_text, sizeof j->alarm_text, "Grbl ALARM:%d", atoi(a + 6));
+            j->alarm = -code_after(a, n);
+            snprintf(j->alarm_text, sizeof j->alarm_text, "Grbl ALARM:%d", code_after(a, n));
         }
         j->alarms++;
     } else if (n == 13 && !memcmp(a, "[MSG:Pgm End]", 13)) {

@@ -129,6 +129,23 @@ static void test_no_line_is_read_while_the_observer_has_no_room(void)
     pk_sim_job_free(&job);
 }
 
+/* Answers after a longer line (the greeting, a message) keep their own code. */
+static void test_errors_are_listed_with_their_line_and_grbl_code(void)
+{
+    static const char prog[] = "G1 Z#1\nG21\nG1 X1 X2\nG1 Z1\nG4 P-1\n%\nG1 X1\n";
+    TH_ASSERT_EQ(start(prog, 1000), 0);
+    TH_ASSERT(run(2000));
+    static const struct { unsigned line; int code; } want[] = {
+        { 1, 2 }, { 3, 25 }, { 4, 22 }, { 5, 4 }, { 7, 22 },
+    };
+    TH_ASSERT_EQ(job.errors, TH_COUNT(want));
+    for (unsigned i = 0; i < TH_COUNT(want); i++) {
+        TH_EXPECT_EQ(job.err[i].line, want[i].line);
+        TH_EXPECT_EQ(job.err[i].code, want[i].code);
+    }
+    pk_sim_job_free(&job);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -136,6 +153,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_each_primitive_comes_exact_with_its_source_line_and_pen_state),
         TH_CASE(test_no_line_is_read_while_the_observer_has_no_room),
+        TH_CASE(test_errors_are_listed_with_their_line_and_grbl_code),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&rec);
