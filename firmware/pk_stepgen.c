@@ -751,6 +751,12 @@ static inline SG_INLINE uint8_t pulse_state(const struct pk_stepgen *sg, uint32_
     return 2u;
 }
 
+/* PK_SG_HW_PULSE=1: a build whose HAL ends the step pulses itself (the AVR
+ * boards); see isr_pulse_low. */
+#ifndef PK_SG_HW_PULSE
+#define PK_SG_HW_PULSE 0
+#endif
+
 /* The ring's tail chunks once the current one is done (left == 0): run the
  * ones that are not steps (a line block's set-up, tool, spindle, waits) and
  * set up the next chunk of events. Returns with an event set up (left > 0;
@@ -878,8 +884,15 @@ static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct p
 }
 
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
- * 0 to go on, else what the callback returns. */
-static SG_NOINLINE uint32_t isr_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal)
+ * 0 to go on, else what the callback returns. Every other call of a HAL
+ * without step_pulse (the host's): inline; a build whose HAL has it
+ * (PK_SG_HW_PULSE=1, the AVR boards) keeps it out of the step path. */
+#if PK_SG_HW_PULSE
+#define SG_PULSE_LOW SG_NOINLINE
+#else
+#define SG_PULSE_LOW inline SG_INLINE
+#endif
+static SG_PULSE_LOW uint32_t isr_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal)
 {
     const uint32_t all = (1u << sg->axes) - 1u;
     if (pk_hal_step_write(hal, all, 0u) != 0)
@@ -928,10 +941,11 @@ static inline SG_INLINE uint32_t isr_bresenham(struct pk_stepgen *sg)
 
 uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
-    if (sg->alarm != 0)
-        return isr_alarm(sg, sg->alarm);
-    if (sg->restart)
+    if ((sg->alarm | (uint8_t)sg->restart) != 0u) {
+        if (sg->alarm != 0)
+            return isr_alarm(sg, sg->alarm);
         isr_restart(sg, hal, now);
+    }
     uint32_t earliest = now;
     const uint8_t phase = sg->phase;
     if (phase == PK_SGP_STEP_DUE) {
@@ -943,27 +957,29 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
                 return isr_watch_stop(sg);
             mask = (uint32_t)w;
         }
-        if (sg->hw_pulse) {
-            /* the backend ends the pulse: on to the next event in this call */
-            sg->phase = PK_SGP_GAP;
-            if (mask != 0u) {
-                if (hal->ops->step_pulse(hal->ctx, mask, mask & ~hal->step_invert, sg->pulse_ticks) != 0)
-                    return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-                earliest = now + 2u * sg->pulse_ticks;
-                sg->low_until = earliest;
-                sg->pulse_hot = 1u;
-            }
-        } else {
+        const uint8_t dir = sg->dir_cur;
+        if (!sg->hw_pulse) {
+            /* the core lowers the lines itself: one more call, pulse_ticks on */
             if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
                 return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+            for (unsigned i = 0; i < sg->axes; i++)
+                if (mask & (1u << i))
+                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
             sg->phase = PK_SGP_PULSE;
-        }
-        const uint8_t dir = sg->dir_cur;
-        for (unsigned i = 0; i < PK_AXES; i++)
-            if (mask & (1u << i))
-                sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
-        if (sg->phase == PK_SGP_PULSE)
             return sg->pulse_ticks;
+        }
+        /* the backend ends the pulse: on to the next event in this call */
+        sg->phase = PK_SGP_GAP;
+        if (mask != 0u) {
+            if (hal->ops->step_pulse(hal->ctx, mask, mask & ~hal->step_invert, sg->pulse_ticks) != 0)
+                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+            earliest = now + 2u * sg->pulse_ticks;
+            sg->low_until = earliest;
+            sg->pulse_hot = 1u;
+            for (unsigned i = 0; i < PK_AXES; i++)
+                if (mask & (1u << i))
+                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
+        }
     } else if (phase == PK_SGP_PULSE) {
         uint32_t r = isr_pulse_low(sg, hal);
         if (r != 0u)
@@ -1000,7 +1016,8 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
     uint32_t at = sg->next_t + (uint32_t)(sg->next_f >> 15);
     if ((int32_t)(at - earliest) < 0)
         at = earliest;
-    sg->pulse_hot = 0u; /* the next edge is after the low time */
+    if (sg->pulse_hot)
+        sg->pulse_hot = 0u; /* the next edge is after the low time */
     sg->phase = PK_SGP_STEP_DUE;
     const int32_t dl = (int32_t)(at - now);
     return dl > 0 ? (uint32_t)dl : 0u;

@@ -9,7 +9,9 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # Two axes + pen, Chaikin and the linear B-spline only, clamped ends, open
 # strokes, no limit stage (PK_BUILD_*: what PK_WIN=2 used to allow), short
 # queues: see the size table of `make firmware`.
-BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+# PK_SG_HW_PULSE=1: the AVR HAL ends step pulses itself (step_pulse), so the
+# step generator keeps its own pulse-ending path out of the step interrupt.
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_BUILD_DEGREES=0x06 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64
