@@ -15,16 +15,10 @@
  * simulation runs as fast as it can and the lag is reported, never
  * accumulated.
  *
- * The pty survives client disconnects (we hold our own slave fd open), so a
- * sender can disconnect and reconnect. serve counts the clients that have the
- * pty open (inotify IN_OPEN / IN_CLOSE on the slave's inode; our own slave fd
- * was opened before the watch) and drops output only once nobody has had the
- * pty open for a whole second: a sender that reconnects at once still gets
- * the answers to what it sent, a client connecting later does not start with
- * stale lines, and a client that is merely slow never loses a byte (a lost
- * `ok` would hang a character-counting sender). The events are read at the
- * top of every loop iteration, before the line is read, and a client's open
- * is queued before anything it writes, so its first answer is never dropped.
+ * The serial side (a pty that survives client disconnects, with a stable
+ * --link, or a real device; output nobody read is dropped only after a whole
+ * second without any client) is hal/posix/pk_serve_port.h, shared with the
+ * Linux board's `plotkin-gpiod serve`.
  * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
@@ -37,8 +31,6 @@
 #define _XOPEN_SOURCE 700
 #include <errno.h>
 #include <poll.h>
-#include <sys/inotify.h>
-#include <unistd.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,7 +39,7 @@
 #include "commands.h"
 #include "serve_sim.h"
 #include "sim_report.h"
-#include "posix/pk_serial.h"
+#include "posix/pk_serve_port.h"
 
 #define TICK_HZ 1000000u
 
@@ -132,14 +124,15 @@ int cmd_serve(int argc, char **argv)
         free(sim);
         return 1;
     }
-    struct pk_serial ser;
-    int rc = device ? pk_serial_open(&ser, device, (uint32_t)baud) : pk_serial_open_pty(&ser, link);
+    struct pk_serve_port port;
+    int rc = pk_serve_port_open(&port, device, (uint32_t)baud, link, stderr);
     if (rc != 0) {
         fprintf(stderr, "plotkin serve: %s: %s\n", device ? device : "pty", strerror(-rc));
         pk_serve_sim_free(sim);
         free(sim);
         return 1;
     }
+    struct pk_serial *ser = &port.ser;
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = on_signal;
@@ -149,57 +142,23 @@ int cmd_serve(int argc, char **argv)
     signal(SIGPIPE, SIG_IGN);
 
     if (device)
-        printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser.path, baud);
+        printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser->path, baud);
     else if (link)
-        printf("plotkin serve: Grbl 1.1 on %s (link %s), speed x%ld\n", ser.path, link, speed);
+        printf("plotkin serve: Grbl 1.1 on %s (link %s), speed x%ld\n", ser->path, link, speed);
     else
-        printf("plotkin serve: Grbl 1.1 on %s, speed x%ld\n", ser.path, speed);
+        printf("plotkin serve: Grbl 1.1 on %s, speed x%ld\n", ser->path, speed);
     fflush(stdout);
 
     uint64_t t0 = now_ns(), wall_start = t0;
     uint64_t sim_base = 0, lag_events = 0;
-    /* A client opening the slave is what makes unread output stale. */
-    int opens = device ? -1 : inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
-    unsigned long clients = 0, connections = 0;
-    uint64_t alone_since = 0; /* wall ns since the pty has had no client; 0: has one */
-    if (opens >= 0 && inotify_add_watch(opens, ser.path, IN_OPEN | IN_CLOSE) < 0) {
-        close(opens);
-        opens = -1;
-    }
-    if (!device && opens < 0)
-        fprintf(stderr, "plotkin serve: inotify unavailable (%s): a reconnecting client may "
-                        "see answers meant for the previous one\n", strerror(errno));
     int io_error = 0, sim_error = 0;
     while (!serve_stop) {
-        if (opens >= 0) {
-            char evbuf[16 * (sizeof(struct inotify_event) + 16)]
-                __attribute__((aligned(__alignof__(struct inotify_event))));
-            ssize_t n;
-            while ((n = read(opens, evbuf, sizeof evbuf)) > 0) {
-                for (char *q = evbuf; q < evbuf + n;) {
-                    const struct inotify_event *e = (const struct inotify_event *)(void *)q;
-                    if (e->mask & IN_OPEN) {
-                        if (clients++ == 0)
-                            connections++;
-                    }
-                    if ((e->mask & IN_CLOSE) && clients > 0)
-                        clients--;
-                    q += sizeof *e + e->len;
-                }
-            }
-            if (clients > 0)
-                alone_since = 0;
-            else if (alone_since == 0)
-                alone_since = now_ns();
-            else if (now_ns() - alone_since >= 1000000000ull)
-                pk_serial_discard_unread(&ser); /* nobody has been there for 1 s */
-        }
-        uint64_t rx0 = ser.rx_bytes;
-        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+        rc = pk_serve_port_pump(&port, &sim->uart);
+        if (rc < 0) {
             io_error = 1;
             break;
         }
-        if (ser.rx_bytes != rx0)
+        if (rc > 0)
             pk_serve_sim_wake(sim); /* the receive interrupt wakes the main loop */
         uint64_t now = pk_serve_sim_now(sim);
         uint64_t target = sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
@@ -212,7 +171,7 @@ int cmd_serve(int argc, char **argv)
             break;
         }
         pk_grbl_poll(&sim->g);
-        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+        if (pk_serial_pump(ser, &sim->uart) != 0) {
             io_error = 1;
             break;
         }
@@ -227,7 +186,7 @@ int cmd_serve(int argc, char **argv)
             continue;
         }
         if (pk_serve_sim_now(sim) >= now_target) {
-            struct pollfd p = { ser.fd, POLLIN, 0 };
+            struct pollfd p = { ser->fd, POLLIN, 0 };
             poll(&p, 1, 1);
         }
     }
@@ -243,8 +202,8 @@ int cmd_serve(int argc, char **argv)
            st->errors, st->moves, st->resets);
     printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow, "
            "%llu client connections\n",
-           (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
-           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)connections);
+           (unsigned long long)ser->rx_bytes, (unsigned long long)ser->tx_bytes,
+           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)port.connections);
     printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->r.m)),
            pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
     /* The simulated machine's own report, as `plotkin sim` prints it. */
@@ -255,9 +214,7 @@ int cmd_serve(int argc, char **argv)
         printf("  (no machine summary: %s)\n", sim->r.err);
     }
     fflush(stdout);
-    if (opens >= 0)
-        close(opens);
-    pk_serial_close(&ser);
+    pk_serve_port_close(&port);
     pk_serve_sim_free(sim);
     free(sim);
     return io_error || sim_error ? 1 : 0;
