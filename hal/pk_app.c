@@ -8,6 +8,12 @@
 
 int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
 {
+    return pk_app_init_settings(app, hal, NULL);
+}
+
+int pk_app_init_settings(struct pk_app *app, const struct pk_hal *hal,
+                         const struct pk_grbl_settings *set)
+{
     memset(app, 0, sizeof *app);
     app->gm.m = &app->m;
     app->gm.hal = hal;
@@ -16,7 +22,7 @@ int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
                                  &app->uart };
     struct pk_grbl_machine_ops ops;
     pk_grbl_motion_ops(&ops);
-    return pk_grbl_init(&app->g, &io, &ops, &app->gm, NULL) == 0 ? 0 : -1;
+    return pk_grbl_init(&app->g, &io, &ops, &app->gm, set) == 0 ? 0 : -1;
 }
 
 void pk_app_poll(struct pk_app *app)

@@ -41,6 +41,7 @@ static int op_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t fir
     p->due = first_tick;
     p->armed = 1;
     p->generation++;
+    p->starts++;
     return PK_HAL_OK;
 }
 
@@ -99,27 +100,43 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
         while (p->armed && now < until) {
             if (p->irq_poll != NULL)
                 p->irq_poll(p->irq_arg);
-            if (p->due > now) {
-                if (st <= 0 && p->due - now > ms) {
+            /* Never closer than min_gap_ticks to the previous callback: after
+             * a late one, the next edge keeps the driver's minimum spacing. */
+            uint64_t at = p->due;
+            if (p->min_gap_ticks != 0u && p->ran_at + p->min_gap_ticks > at)
+                at = p->ran_at + p->min_gap_ticks;
+            if (at > now) {
+                if (st <= 0 && at - now > ms) {
                     struct timespec nap = { 0, 200000 }; /* far away: doze 0.2 ms */
                     nanosleep(&nap, NULL);
                 }
                 now = op_clock_ticks(p);
-                if (p->due > now && st > 0)
+                if (at > now && st > 0)
                     break; /* main has work: do it, come back */
                 continue;
             }
             if (now - p->due > p->late_max)
                 p->late_max = now - p->due;
             uint32_t gen = p->generation;
-            uint64_t next = p->cb(p->cb_arg, p->due);
+            p->running_due = p->due;
+            p->in_cb = 1;
+            p->callbacks++;
+            /* The callback gets the tick it really runs at (as the AVR and
+             * Cortex-M timers pass theirs): a late step then still gets its
+             * full pulse width and the step generator moves its schedule
+             * rather than firing the missed steps back to back. */
+            uint64_t next = p->cb(p->cb_arg, now);
+            p->in_cb = 0;
             if (p->generation == gen) {
                 if (next == 0u)
                     p->armed = 0;
                 else
                     p->due = next;
             }
+            /* After the callback: its edges are written by now, even if the
+             * process was preempted inside it. */
             now = op_clock_ticks(p);
+            p->ran_at = now;
         }
         if (!p->armed && st == 0) {
             struct timespec nap = { 0, 500000 }; /* nothing scheduled: 0.5 ms */
@@ -128,14 +145,14 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
     }
 }
 
-int pk_posix_realtime(void)
+uint64_t pk_posix_timer_ns(const struct pk_posix_timer *p) { return mono_ns() - p->origin_ns; }
+
+int pk_posix_realtime(int *sched_err, int *lock_err)
 {
     struct sched_param sp;
     memset(&sp, 0, sizeof sp);
     sp.sched_priority = sched_get_priority_max(SCHED_FIFO) / 2;
-    if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
-        return -errno;
-    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-        return -errno;
-    return 0;
+    *sched_err = sched_setscheduler(0, SCHED_FIFO, &sp) != 0 ? errno : 0;
+    *lock_err = mlockall(MCL_CURRENT | MCL_FUTURE) != 0 ? errno : 0;
+    return *sched_err == 0 && *lock_err == 0 ? 0 : -1;
 }
