@@ -86,6 +86,7 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
                  volatile int *stop)
 {
     const uint64_t ms = p->tick_hz / 1000u ? p->tick_hz / 1000u : 1u;
+    const uint64_t spin = p->tick_hz / 10000u ? p->tick_hz / 10000u : 1u; /* 100 us */
     for (;;) {
         if (stop != NULL && *stop)
             return 1;
@@ -106,9 +107,16 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
             if (p->min_gap_ticks != 0u && p->ran_at + p->min_gap_ticks > at)
                 at = p->ran_at + p->min_gap_ticks;
             if (at > now) {
-                if (st <= 0 && at - now > ms) {
-                    struct timespec nap = { 0, 200000 }; /* far away: doze 0.2 ms */
-                    nanosleep(&nap, NULL);
+                if (st <= 0 && at - now > spin) {
+                    /* Sleep until `spin` before it, then spin the rest: a
+                     * SCHED_FIFO loop that only spun would use 100% of its
+                     * core and be throttled by the kernel (sched_rt_runtime_us:
+                     * 50 ms stalls every second, measured by bench-gpiod). */
+                    uint64_t wake = at - spin < until ? at - spin : until;
+                    uint64_t ns = p->origin_ns + wake / p->tick_hz * 1000000000u +
+                                  wake % p->tick_hz * 1000000000u / p->tick_hz;
+                    struct timespec ts = { (time_t)(ns / 1000000000u), (long)(ns % 1000000000u) };
+                    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
                 }
                 now = op_clock_ticks(p);
                 if (at > now && st > 0)

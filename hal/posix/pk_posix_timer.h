@@ -6,8 +6,11 @@
  * whose callback is run from the same thread as the main loop, and trivial
  * critical sections (there is no second thread to exclude). pk_posix_run is
  * the loop: it runs the main-loop function, then any callback that is due,
- * busy-waiting (with short sleeps when the next callback is far) so that
- * step edges come as close to their tick as Linux allows. For steadier edges
+ * sleeping (clock_nanosleep to an absolute time) until 100 µs before the next
+ * callback while the main function is idle and busy-waiting the rest, so
+ * that step edges come as close to their tick as Linux allows without a
+ * SCHED_FIFO loop using its whole core (which the kernel's RT throttling
+ * answers with 50 ms stalls every second). For steadier edges
  * run it with SCHED_FIFO and mlockall (pk_posix_realtime). A callback is
  * called with the tick it really runs at (>= its scheduled tick, as the AVR
  * and Cortex-M timers do), so a late step still gets its full pulse width and

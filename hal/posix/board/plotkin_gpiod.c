@@ -201,6 +201,19 @@ static int realtime_setup(enum rt_mode rt)
 
 /* ---- the two modes ------------------------------------------------------------ */
 
+/* The job's main-loop turn, busy only when it made progress (read input,
+ * answered a line): pk_sim_job_main says "busy" all along a job, which would
+ * keep the loop spinning (a SCHED_FIFO loop that never sleeps is throttled
+ * by the kernel); idle, the loop still comes back within a millisecond. */
+static int job_turn(void *arg, uint64_t now)
+{
+    struct pk_sim_job *j = arg;
+    size_t pos0 = j->pos;
+    unsigned long lines0 = j->lines;
+    int r = pk_sim_job_main(arg, now);
+    return r < 0 ? r : j->pos != pos0 || j->lines != lines0 ? 1 : 0;
+}
+
 /* Play a file (the job code of `plotkin sim`). Returns the exit status. */
 static int play_file(struct pk_posix_timer *timer, const struct pk_hal *hal, struct pk_sim_cfg *mcfg,
                      const struct pk_motion_cfg *motion, char *prog, enum rt_mode rt)
@@ -214,7 +227,7 @@ static int play_file(struct pk_posix_timer *timer, const struct pk_hal *hal, str
     if (realtime_setup(rt) != 0)
         return 1;
     pk_sim_job_init(&job, &m, mcfg, prog, strlen(prog));
-    int stopped = pk_posix_run(timer, pk_sim_job_main, &job, &run_stop);
+    int stopped = pk_posix_run(timer, job_turn, &job, &run_stop);
     if (stopped)
         (void)pk_machine_reset(&m);
     pk_steps_t pos[PK_AXES];
@@ -224,7 +237,8 @@ static int play_file(struct pk_posix_timer *timer, const struct pk_hal *hal, str
            job.alarms ? ": " : "", job.alarm_text);
     for (unsigned a = 0; a < mcfg->axes; a++)
         printf(" %ld", (long)pos[a]);
-    printf(" steps; latest timer callback %llu ticks late\n", (unsigned long long)timer->late_max);
+    printf(" steps; %u late step events; latest timer callback %llu ticks late\n",
+           (unsigned)m.sg.late, (unsigned long long)timer->late_max);
     int status = stopped || job.alarms || job.errors ? 1 : 0;
     pk_sim_job_free(&job);
     return status;
@@ -235,8 +249,6 @@ struct serve {
     struct pk_serve_port port;
     struct pk_posix_timer *timer;
     int io_errno;          /* the serial line failed (stops the server) */
-    uint32_t underruns;    /* the timer ran dry with blocks still queued */
-    uint8_t was_armed;
 };
 
 /* One turn of the board's main loop: the receive/transmit "interrupts"
@@ -253,15 +265,8 @@ static int serve_main(void *arg, uint64_t now)
         run_stop = 1;
         return 0;
     }
-    /* The callback stopped the timer while the machine still had blocks
-     * queued: it used every prepared chunk (the firmware restarts it on
-     * this poll; steps are delayed, never lost). */
-    if (s->was_armed && !s->timer->armed && pk_machine_state(&s->app.m) == PK_STATE_RUN &&
-        pk_machine_queue_fill(&s->app.m) > 0u)
-        s->underruns++;
     uint32_t lines0 = s->app.g.stats.lines;
     pk_app_poll(&s->app);
-    s->was_armed = s->timer->armed;
     if ((rc = pk_serial_pump(&s->port.ser, &s->app.uart)) < 0) {
         s->io_errno = -rc;
         run_stop = 1;
@@ -336,8 +341,11 @@ static int serve(struct pk_posix_timer *timer, const struct pk_hal *hal, const s
     printf(" mm, steps");
     for (unsigned a = 0; a < PK_AXES; a++)
         printf(" %ld", (long)st[a]);
-    printf("\n  timer: %u starts, %llu callbacks, %u underruns, latest callback %llu ticks late\n",
-           timer->starts, (unsigned long long)timer->callbacks, s.underruns,
+    /* late: step events the generator found a whole interval overdue (the
+     * loop fell behind; the schedule moved instead of bunching steps). */
+    printf("\n  timer: %u starts, %llu callbacks, %u late step events, latest callback %llu "
+           "ticks late\n",
+           timer->starts, (unsigned long long)timer->callbacks, (unsigned)s.app.m.sg.late,
            (unsigned long long)timer->late_max);
     fflush(stdout);
     pk_serve_port_close(&s.port);
