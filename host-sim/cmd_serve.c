@@ -133,13 +133,7 @@ int cmd_serve(int argc, char **argv)
         return 1;
     }
     struct pk_serial *ser = &port.ser;
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    signal(SIGPIPE, SIG_IGN);
+    pk_serve_port_signals(on_signal);
 
     if (device)
         printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser->path, baud);

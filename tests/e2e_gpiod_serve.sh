@@ -18,6 +18,9 @@ BOARD=hal/gpiod/rpi-plotter.conf   # step 17 27, dir 22 23, enable 24, pen 25
 pass=0; fail=0
 ok()  { pass=$((pass+1)); echo "ok $1"; }
 bad() { fail=$((fail+1)); echo "not ok $1"; shift; printf '  %s\n' "$@"; }
+if ! $PY -c 'import serial' 2>/dev/null; then
+  bad "python3-serial is installed (.ci/deps.sh base)"; echo "$pass passed, $fail failed"; exit 1
+fi
 tmp=$(mktemp -d)
 srv=""
 cleanup() { [[ -n $srv ]] && kill "$srv" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }

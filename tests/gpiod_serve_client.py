@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """A Grbl sender for `plotkin-gpiod serve --link PTY` (the board binary's
 test variant on the mock chip, in real time): what cncjs / UGS / stream.py do
-on a Raspberry Pi, with the Python standard library only (termios, select).
+on a Raspberry Pi, with the sender class of tests/serve_client.py (pyserial).
 
 Character counting against the 128-byte receive buffer, '?' while streaming,
 '!' / '~' in the middle of a stroke, Ctrl-X in motion, and a client that
@@ -13,85 +13,16 @@ Prints "ok <name>" / "not ok <name>", then "END x y" (the final programmed
 position, mm, for the trace decoder) and "N passed, N failed" last.
 """
 import os
-import re
-import select
 import sys
-import termios
 import time
-import tty
+
+# The sender of tests/serve_client.py (pyserial, Debian's python3-serial):
+# its Grbl class, checks and status parsers; its main() does not run here.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from serve_client import Grbl, check, mpos, near, results  # noqa: E402
 
 PTY = sys.argv[1]
 RX_BUFFER = 128
-results = []
-
-
-def check(name, cond, detail=""):
-    results.append(bool(cond))
-    print(("ok " if cond else "not ok ") + name)
-    if not cond and detail:
-        print("  " + str(detail)[:600])
-
-
-class Grbl:
-    def __init__(self, path):
-        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
-        tty.setraw(self.fd)
-        self.buf = b""
-
-    def close(self):
-        os.close(self.fd)
-
-    def write(self, data):
-        while data:
-            n = os.write(self.fd, data)
-            data = data[n:]
-
-    def readline(self, deadline):
-        while b"\n" not in self.buf:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise TimeoutError("no line; have %r" % self.buf[-200:])
-            if select.select([self.fd], [], [], min(left, 0.1))[0]:
-                self.buf += os.read(self.fd, 4096)
-        line, self.buf = self.buf.split(b"\n", 1)
-        return line.rstrip(b"\r").decode("ascii", "replace")
-
-    def wait_for(self, pred, timeout=10.0):
-        deadline = time.monotonic() + timeout
-        seen = []
-        while True:
-            line = self.readline(deadline)
-            if pred(line):
-                return line, seen
-            seen.append(line)
-
-    def answer(self, timeout=10.0):
-        line, _ = self.wait_for(lambda l: l == "ok" or l.startswith("error:"), timeout)
-        return 0 if line == "ok" else int(line[6:])
-
-    def status(self, timeout=5.0):
-        self.write(b"?")
-        line, _ = self.wait_for(lambda l: l.startswith("<") and l.endswith(">"), timeout)
-        return line
-
-    def wait_state(self, states, timeout=30.0):
-        deadline = time.monotonic() + timeout
-        st = None
-        while time.monotonic() < deadline:
-            st = self.status()
-            if st[1:].split("|")[0] in states:
-                return st
-            time.sleep(0.02)
-        raise TimeoutError("state never in %s (last %s)" % (states, st))
-
-
-def mpos(status):
-    m = re.search(r"MPos:([-\d.]+),([-\d.]+),([-\d.]+)", status)
-    return tuple(float(v) for v in m.groups()) if m else None
-
-
-def near(a, b):
-    return a is not None and all(abs(p - q) < 1e-9 for p, q in zip(a, b))
 
 
 def moving(g, timeout=10.0):
@@ -156,9 +87,7 @@ def main():
           near(mpos(st), end), (st, end))
     g.write(b"?")
     time.sleep(0.1)
-    extra = g.buf
-    while select.select([g.fd], [], [], 0.05)[0]:
-        extra += os.read(g.fd, 4096)
+    extra = g.s.read(g.s.in_waiting) + g.buf
     g.buf = b""
     check("no stray acknowledgement after the stream", b"ok" not in extra, extra)
 

@@ -6,6 +6,7 @@
 #include "pk_serve_port.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <string.h>
 #include <sys/inotify.h>
 #include <time.h>
@@ -75,6 +76,17 @@ int pk_serve_port_pump(struct pk_serve_port *p, struct pk_uart *u)
     if (rc != 0)
         return rc;
     return p->ser.rx_bytes != rx0;
+}
+
+void pk_serve_port_signals(void (*on_stop)(int sig))
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
 }
 
 void pk_serve_port_close(struct pk_serve_port *p)

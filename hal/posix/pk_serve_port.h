@@ -62,6 +62,13 @@ int pk_serve_port_open(struct pk_serve_port *p, const char *device, uint32_t bau
  */
 int pk_serve_port_pump(struct pk_serve_port *p, struct pk_uart *u);
 
+/**
+ * A server's signals: SIGINT and SIGTERM call on_stop (which should only set
+ * a sig_atomic_t flag the loop reads), SIGPIPE is ignored (a vanished client
+ * is an I/O result, never a kill). Calling context: MAIN, once.
+ */
+void pk_serve_port_signals(void (*on_stop)(int sig));
+
 /** Close the line, remove the symlink, stop watching. Safe to call twice. */
 void pk_serve_port_close(struct pk_serve_port *p);
 

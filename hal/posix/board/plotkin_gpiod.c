@@ -429,13 +429,7 @@ int main(int argc, char **argv)
     fprintf(stderr, "plotkin-gpiod: TEST BUILD: mock GPIO chip '%s' in memory, no pin is driven\n",
             bcfg.chip);
 #endif
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    signal(SIGPIPE, SIG_IGN);
+    pk_serve_port_signals(on_signal);
     int status;
     if (pk_gpiod_open(&gpio, &bcfg, &base, &hal) != PK_HAL_OK) {
         fprintf(stderr, "plotkin-gpiod: %s\n", pk_gpiod_error_text(&gpio));
