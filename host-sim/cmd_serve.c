@@ -3,7 +3,7 @@
  * motion core) in the simulator in real time and expose it on a
  * pseudo-terminal, so any G-code sender can connect as if to a board.
  *
- *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N]
+ *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N] [--eeprom FILE]
  *
  * The simulated clock follows the wall clock times N (--speed). Each loop
  * iteration moves bytes between the pty and the UART shim (the "RX/TX
@@ -17,8 +17,14 @@
  *
  * The serial side (a pty that survives client disconnects, with a stable
  * --link, or a real device; output nobody read is dropped only after a whole
- * second without any client) is hal/posix/pk_serve_port.h, shared with the
- * Linux board's `plotkin-gpiod serve`.
+ * second without any client; when the last client closes, what it sent is
+ * still read and executed up to its last complete line and its unfinished
+ * line is dropped with pk_grbl_drop_partial_line, so a half "G0 X1" is never
+ * glued to the next client's "0 Y5") is hal/posix/pk_serve_port.h, shared
+ * with the Linux board's `plotkin-gpiod serve`.
+ * --eeprom FILE keeps the settings, offsets and startup lines in FILE (the
+ * board's EEPROM: hal/posix/pk_nvm_file.h) across runs; without it they
+ * start from the defaults every time.
  * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
@@ -39,6 +45,7 @@
 #include "commands.h"
 #include "serve_sim.h"
 #include "sim_report.h"
+#include "posix/pk_nvm_file.h"
 #include "posix/pk_serve_port.h"
 
 #define TICK_HZ 1000000u
@@ -61,13 +68,14 @@ static uint64_t now_ns(void)
 
 static void usage(FILE *f)
 {
-    fputs("usage: plotkin serve [--link PATH] [--speed N] [--device PATH [--baud N]]\n"
+    fputs("usage: plotkin serve [--link PATH] [--speed N] [--device PATH [--baud N]] [--eeprom FILE]\n"
           "\n"
           "Run the simulated machine in real time and speak Grbl 1.1 on a pseudo-terminal.\n"
           "  --link PATH    also make PATH a symlink to the pty (stable name for senders)\n"
           "  --speed N      simulated clock runs N times faster than the wall clock (1..100000)\n"
           "  --device PATH  serve on a real serial device instead of a pty (raw mode)\n"
           "  --baud N       baud rate for --device (default 115200)\n"
+          "  --eeprom FILE  keep settings, offsets and startup lines in FILE across runs\n"
           "Stops on SIGINT/SIGTERM and prints a summary.\n",
           f);
 }
@@ -85,7 +93,7 @@ static const char *state_name(int st)
 
 int cmd_serve(int argc, char **argv)
 {
-    const char *link = NULL, *device = NULL;
+    const char *link = NULL, *device = NULL, *eeprom = NULL;
     long speed = 1, baud = 115200;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
@@ -95,6 +103,8 @@ int cmd_serve(int argc, char **argv)
             link = argv[++i];
         } else if (!strcmp(argv[i], "--device") && i + 1 < argc) {
             device = argv[++i];
+        } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc) {
+            eeprom = argv[++i];
         } else if ((!strcmp(argv[i], "--speed") || !strcmp(argv[i], "--baud")) && i + 1 < argc) {
             char *end;
             long v = strtol(argv[i + 1], &end, 10);
@@ -114,9 +124,20 @@ int cmd_serve(int argc, char **argv)
         }
     }
 
+    static struct pk_nvm_file nvf = { -1, 0 };
+    struct pk_grbl_nvm nvm, *nvmp = NULL;
+    if (eeprom != NULL) {
+        int e = pk_nvm_file_open(&nvf, eeprom, pk_grbl_nvm_bytes());
+        if (e != 0) {
+            fprintf(stderr, "plotkin serve: --eeprom %s: %s\n", eeprom, strerror(-e));
+            return 1;
+        }
+        nvm = (struct pk_grbl_nvm){ pk_nvm_file_read, pk_nvm_file_write, &nvf, nvf.size };
+        nvmp = &nvm;
+    }
     struct pk_serve_sim *sim = calloc(1, sizeof *sim);
     const struct pk_timing_limits lim = PK_TIMING_DRV8825;
-    if (sim == NULL || pk_serve_sim_start(sim, "plotkin-serve0", &lim) != 0) {
+    if (sim == NULL || pk_serve_sim_start_nvm(sim, "plotkin-serve0", &lim, nvmp) != 0) {
         fprintf(stderr, "plotkin serve: cannot initialise the machine%s%s\n", sim ? ": " : "",
                 sim ? sim->r.err : "");
         if (sim)
@@ -152,7 +173,9 @@ int cmd_serve(int argc, char **argv)
             io_error = 1;
             break;
         }
-        if (rc > 0)
+        if (rc & PK_SERVE_PORT_LEFT)
+            pk_grbl_drop_partial_line(&sim->g); /* before a byte of the next client */
+        if (rc & PK_SERVE_PORT_RX)
             pk_serve_sim_wake(sim); /* the receive interrupt wakes the main loop */
         uint64_t now = pk_serve_sim_now(sim);
         uint64_t target = sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
@@ -211,5 +234,6 @@ int cmd_serve(int argc, char **argv)
     pk_serve_port_close(&port);
     pk_serve_sim_free(sim);
     free(sim);
+    pk_nvm_file_close(&nvf);
     return io_error || sim_error ? 1 : 0;
 }

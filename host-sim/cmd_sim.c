@@ -56,7 +56,8 @@ static const char sim_usage[] =
     "each with the least value the step quantisation allows (>=). The deviation is\n"
     "the distance from each decoded step position to the programmed path (lines,\n"
     "arcs and G5 curves evaluated exactly): its maximum, where, and 95th percentile.\n"
-    "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
+    "Soft limits ($20=1, which needs $22=1) keep moves within [-$13x, 0] as Grbl after\n"
+    "homing; without them (the default) any target within +-2097 mm runs.\n"
     "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
     "setup failure; 2 bad usage.\n";

@@ -54,8 +54,12 @@ static void track_clients(struct pk_serve_port *p)
                 if (p->clients++ == 0)
                     p->connections++;
             }
-            if ((e->mask & IN_CLOSE) && p->clients > 0)
-                p->clients--;
+            if ((e->mask & IN_CLOSE) && p->clients > 0 && --p->clients == 0) {
+                /* the last client left: read what it sent before it closed,
+                 * then have its unfinished line dropped */
+                p->ser.rx_allow = (long)pk_serial_pending(&p->ser);
+                p->draining = 1;
+            }
             q += sizeof *e + e->len;
         }
     }
@@ -69,13 +73,19 @@ static void track_clients(struct pk_serve_port *p)
 
 int pk_serve_port_pump(struct pk_serve_port *p, struct pk_uart *u)
 {
+    int flags = 0;
     if (p->opens >= 0)
         track_clients(p);
+    if (p->draining && p->ser.rx_allow == 0 && pk_uart_rx_used(u) == 0) {
+        p->ser.rx_allow = -1;
+        p->draining = 0;
+        flags |= PK_SERVE_PORT_LEFT;
+    }
     uint64_t rx0 = p->ser.rx_bytes;
     int rc = pk_serial_pump(&p->ser, u);
     if (rc != 0)
         return rc;
-    return p->ser.rx_bytes != rx0;
+    return flags | (p->ser.rx_bytes != rx0 ? PK_SERVE_PORT_RX : 0);
 }
 
 void pk_serve_port_signals(void (*on_stop)(int sig))

@@ -16,7 +16,12 @@
  * stale lines, and a client that is merely slow never loses a byte (a lost
  * `ok` would hang a character-counting sender). The events are read before
  * the line is, and a client's open is queued before anything it writes, so
- * its first answer is never dropped.
+ * its first answer is never dropped. When the last client closes the pty,
+ * whatever it sent is still read (pk_serial's rx_allow), and once all of it
+ * has been taken from the ring the pump says so (PK_SERVE_PORT_LEFT): the
+ * engine then drops that client's unfinished line before a byte of the next
+ * client is read (a half "G0 X1" never glued to the next "0 Y5"; Grbl boards
+ * get the same from the reset a port open gives them).
  *
  * Bytes move between the fd and a struct pk_uart (whose realtime filter
  * claims Grbl's ? ! ~ Ctrl-X on arrival, out of band) by pk_serial_pump:
@@ -40,6 +45,7 @@ struct pk_serve_port {
     unsigned long connections;    /**< times a first client opened it */
     uint64_t alone_since_ns;      /**< private: CLOCK_MONOTONIC since no client; 0: has one */
     uint8_t is_device;            /**< 1: a serial device (no client tracking) */
+    uint8_t draining;             /**< private: the last client left; its bytes are being read */
 };
 
 /**
@@ -53,10 +59,15 @@ struct pk_serve_port {
 int pk_serve_port_open(struct pk_serve_port *p, const char *device, uint32_t baud,
                        const char *link, FILE *warn);
 
+#define PK_SERVE_PORT_RX 1    /**< bytes arrived: wake the engine */
+#define PK_SERVE_PORT_LEFT 2  /**< the last client left and all it sent has been taken
+                                   from the ring: drop its unfinished line now
+                                   (pk_grbl_drop_partial_line), before the engine reads on */
+
 /**
  * Track the pty's clients (dropping output nobody has read for a second of
  * no client), then move bytes both ways (pk_serial_pump).
- * @return 1 bytes arrived (wake the engine), 0 none, or -errno on an I/O
+ * @return PK_SERVE_PORT_* bits (0: nothing happened), or -errno on an I/O
  *         error of the line (not EAGAIN/EINTR)
  * Calling context: MAIN, every turn of the server's loop.
  */

@@ -265,6 +265,9 @@ static int serve_main(void *arg, uint64_t now)
         run_stop = 1;
         return 0;
     }
+    if (rc & PK_SERVE_PORT_LEFT)
+        pk_grbl_drop_partial_line(&s->app.g); /* before a byte of the next client */
+    int woke = rc & PK_SERVE_PORT_RX;
     uint32_t lines0 = s->app.g.stats.lines;
     pk_app_poll(&s->app);
     if ((rc = pk_serial_pump(&s->port.ser, &s->app.uart)) < 0) {
@@ -274,7 +277,7 @@ static int serve_main(void *arg, uint64_t now)
     }
     /* Busy (call again at once) while bytes arrive or lines are answered;
      * otherwise the loop comes back within a millisecond. */
-    return rc > 0 || s->app.g.stats.lines != lines0 ? 1 : 0;
+    return woke || s->app.g.stats.lines != lines0 ? 1 : 0;
 }
 
 static const char *state_name(enum pk_machine_state st)
