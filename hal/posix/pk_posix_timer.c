@@ -92,7 +92,11 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
             return 1;
         if (p->irq_poll != NULL)
             p->irq_poll(p->irq_arg);
-        int st = main_fn(arg, op_clock_ticks(p));
+        uint64_t t_main = op_clock_ticks(p);
+        int st = main_fn(arg, t_main);
+        t_main = op_clock_ticks(p) - t_main;
+        if (t_main > p->main_max)
+            p->main_max = t_main; /* a callback due meanwhile waited this long */
         if (st < 0 && !p->armed)
             return 0;
         /* Run every callback that is due; give the main loop a turn at least

@@ -55,6 +55,8 @@ struct pk_posix_timer {
     uint64_t min_gap_ticks; /**< 0, or the least time between two callbacks (set by the
                                  board: its step pulse / direction set-up), see below */
     uint64_t ran_at;        /**< private: tick the last callback returned at */
+    uint64_t main_max;      /**< longest main-function call seen, ticks (callbacks wait
+                                 for it: the loop is one thread) */
     void (*irq_poll)(void *arg); /**< optional edge source, see above (NULL: none) */
     void *irq_arg;
 };

@@ -237,8 +237,10 @@ static int play_file(struct pk_posix_timer *timer, const struct pk_hal *hal, str
            job.alarms ? ": " : "", job.alarm_text);
     for (unsigned a = 0; a < mcfg->axes; a++)
         printf(" %ld", (long)pos[a]);
-    printf(" steps; %u late step events; latest timer callback %llu ticks late\n",
-           (unsigned)m.sg.late, (unsigned long long)timer->late_max);
+    printf(" steps; %u late step events; latest timer callback %llu ticks late; longest main "
+           "turn %llu ticks\n",
+           (unsigned)m.sg.late, (unsigned long long)timer->late_max,
+           (unsigned long long)timer->main_max);
     int status = stopped || job.alarms || job.errors ? 1 : 0;
     pk_sim_job_free(&job);
     return status;
@@ -347,9 +349,9 @@ static int serve(struct pk_posix_timer *timer, const struct pk_hal *hal, const s
     /* late: step events the generator found a whole interval overdue (the
      * loop fell behind; the schedule moved instead of bunching steps). */
     printf("\n  timer: %u starts, %llu callbacks, %u late step events, latest callback %llu "
-           "ticks late\n",
+           "ticks late, longest main turn %llu ticks\n",
            timer->starts, (unsigned long long)timer->callbacks, (unsigned)s.app.m.sg.late,
-           (unsigned long long)timer->late_max);
+           (unsigned long long)timer->late_max, (unsigned long long)timer->main_max);
     fflush(stdout);
     pk_serve_port_close(&s.port);
     return s.io_errno ? 1 : 0;
