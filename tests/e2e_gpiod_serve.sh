@@ -132,7 +132,70 @@ PYEOF
   fi
 fi
 
-# 3. Usage errors are refused, not guessed.
+# 3. SIGINT in the middle of a move: the motion stops at once, the lines are
+# released at their inactive levels, and the summary says where it stopped.
+start "$BUILD/plotkin-gpiod-mock" "$tmp/itty" "$tmp/itrace"
+got=$(timeout 20 $PY - "$tmp/itty" <<'PYEOF' 2>&1
+import os, select, sys, time, tty
+fd = os.open(sys.argv[1], os.O_RDWR | os.O_NOCTTY); tty.setraw(fd)
+buf = b""
+def until(pat, t=10):
+    global buf
+    end = time.monotonic() + t
+    while pat not in buf and time.monotonic() < end:
+        if select.select([fd], [], [], 0.1)[0]: buf += os.read(fd, 4096)
+    return pat in buf
+os.write(fd, b"\x18"); until(b"Grbl 1.1h")
+os.write(fd, b"M3\nG1 X100 Y50 F600\n"); until(b"ok\r\nok")
+for _ in range(300):
+    buf = b""; os.write(fd, b"?"); until(b">")
+    if b"<Run|MPos:0.000,0.000" not in buf and b"<Run|" in buf: break
+    time.sleep(0.01)
+print(buf.decode(errors="replace").strip())
+PYEOF
+)
+kill -INT "$srv"
+for _ in $(seq 100); do kill -0 "$srv" 2>/dev/null || break; sleep 0.05; done
+wait "$srv"; rc=$?; srv=""
+fin=$($PY - "$tmp/itrace" <<'PYEOF'
+import sys
+lv = {}
+for r in open(sys.argv[1]):
+    if not r.startswith('#'):
+        t, d, l, v, i = r.split(); lv[int(l)] = int(v)
+print(" ".join("%d=%d" % (k, lv[k]) for k in sorted(lv)))
+PYEOF
+)
+pos=$(sed -n 's/^  state [A-Za-z:0-9]*, position X\([0-9.]*\) Y\([0-9.]*\) .*/\1 \2/p' "$tmp/out")
+read -r px py <<<"$pos"
+if [[ $rc -eq 0 && $got == "<Run|"* && -n $pos ]] && grep -q "^plotkin-gpiod: stopped$" "$tmp/out" &&
+   $PY -c "import sys; x,y=map(float,sys.argv[1:]); sys.exit(0 if 0<x<100 and 0<y<50 else 1)" "$px" "$py" &&
+   [[ $fin =~ ^17=0\ 22=[01]\ 23=[01]\ 24=1\ 25=0\ 27=0$ ]]; then
+  ok "SIGINT mid-move stops the board short of the target and releases the lines ($pos; $fin)"
+else
+  bad "SIGINT mid-move stops the board short of the target and releases the lines" "exit $rc" "$got" "$fin" "$(cat "$tmp/out")"
+fi
+
+# 4. --device: a real tty (one end of a socat null-modem pair) in raw mode.
+if command -v socat >/dev/null; then
+  socat pty,raw,echo=0,link="$tmp/nmA" pty,raw,echo=0,link="$tmp/nmB" 2>/dev/null &
+  nm=$!
+  for _ in $(seq 100); do [[ -e $tmp/nmA && -e $tmp/nmB ]] && break; sleep 0.05; done
+  "$BUILD/plotkin-gpiod-mock" --board "$BOARD" --no-realtime serve --device "$tmp/nmA" >"$tmp/dout" 2>&1 &
+  srv=$!
+  for _ in $(seq 100); do grep -q "at 115200 baud" "$tmp/dout" 2>/dev/null && break; sleep 0.05; done
+  got=$(printf '$I\nG0 X3 Y2\n' | timeout 10 socat -t 1 - "FILE:$tmp/nmB,raw,echo=0" 2>&1)
+  sleep 0.5
+  kill -TERM "$srv"; wait "$srv"; rc=$?; srv=""
+  kill "$nm" 2>/dev/null; wait "$nm" 2>/dev/null
+  if [[ $rc -eq 0 ]] && echo "$got" | grep -q '^\[OPT:.*,128\]' && grep -q "position X3.000 Y2.000 .* steps 240 160 0" "$tmp/dout"; then
+    ok "serve --device speaks Grbl on a real tty at 115200 8N1 raw and moves the board"
+  else
+    bad "serve --device speaks Grbl on a real tty at 115200 8N1 raw and moves the board" "$got" "$(cat "$tmp/dout")"
+  fi
+fi
+
+# 5. Usage errors are refused, not guessed.
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" serve >/dev/null 2>"$tmp/u1"; r1=$?
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" serve --link "$tmp/a" --device /dev/null >/dev/null 2>"$tmp/u2"; r2=$?
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" --no-realtime serve --device "$tmp/none" >/dev/null 2>"$tmp/u3"; r3=$?
