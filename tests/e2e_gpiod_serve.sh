@@ -195,7 +195,27 @@ if command -v socat >/dev/null; then
   fi
 fi
 
-# 5. Usage errors are refused, not guessed.
+# 5. Where real time is refused (an unprivileged user: here root drops to
+# nobody with setpriv, which clears the capabilities): by default one line
+# says so and what it means, and the board runs; --realtime refuses to run.
+if [[ $(id -u) -eq 0 ]] && command -v setpriv >/dev/null; then
+  printf 'G1 X1.25 F3000\n' >"$tmp/one.gcode"; chmod 755 "$tmp"; chmod 644 "$tmp/one.gcode"
+  nob=(setpriv --reuid 65534 --regid 65534 --clear-groups "$BUILD/plotkin-gpiod-mock" --board "$BOARD")
+  "${nob[@]}" "$tmp/one.gcode" >"$tmp/r1" 2>&1; r1=$?
+  "${nob[@]}" --realtime "$tmp/one.gcode" >"$tmp/r2" 2>&1; r2=$?
+  if [[ $r1 -eq 0 && $r2 -eq 1 ]] && grep -q "position 100 0 steps" "$tmp/r1" &&
+     [[ $(grep -c "note: no real-time .*Operation not permitted.*: step timing will jitter" "$tmp/r1") -eq 1 ]] &&
+     grep -q -- "--realtime: refused (SCHED_FIFO: Operation not permitted" "$tmp/r2" && ! grep -q "position" "$tmp/r2"; then
+    ok "without the privilege: one clear line and the job runs; with --realtime it refuses"
+  else
+    bad "without the privilege: one clear line and the job runs; with --realtime it refuses" \
+        "$r1 $r2" "$(cat "$tmp/r1" "$tmp/r2")"
+  fi
+else
+  echo "# not root or no setpriv: the refused-real-time case is not exercised here"
+fi
+
+# 6. Usage errors are refused, not guessed.
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" serve >/dev/null 2>"$tmp/u1"; r1=$?
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" serve --link "$tmp/a" --device /dev/null >/dev/null 2>"$tmp/u2"; r2=$?
 "$BUILD/plotkin-gpiod-mock" --board "$BOARD" --no-realtime serve --device "$tmp/none" >/dev/null 2>"$tmp/u3"; r3=$?
