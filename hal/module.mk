@@ -51,3 +51,4 @@ test-build: $(BUILD)/plotkin-gpiod-mock $(SAN)/plotkin-gpiod-mock
 .PHONY: bench-gpiod
 bench-gpiod: $(BUILD)/plotkin-gpiod-mock
 	@$(PYTHON3) bench/gpiod_timing.py $(BUILD)/plotkin-gpiod-mock
+bench: bench-gpiod

@@ -201,6 +201,17 @@ static int realtime_setup(enum rt_mode rt)
 
 /* ---- the two modes ------------------------------------------------------------ */
 
+/* Two callbacks never closer than the machine's step pulse ($0) or direction
+ * set-up ($206), whichever is longer, plus one tick for the clock's
+ * resolution, however late one ran (pk_posix_timer.h). Follows the machine's
+ * configuration as it is now (a `$0=` applies from the next turn). */
+static void edge_gap_follow(struct pk_posix_timer *timer, const struct pk_machine *m)
+{
+    uint32_t gap = m->cfg.step_pulse_ticks > m->cfg.dir_setup_ticks ? m->cfg.step_pulse_ticks
+                                                                    : m->cfg.dir_setup_ticks;
+    timer->min_gap_ticks = (uint64_t)gap + 1u;
+}
+
 /* The job's main-loop turn, busy only when it made progress (read input,
  * answered a line): pk_sim_job_main says "busy" all along a job, which would
  * keep the loop spinning (a SCHED_FIFO loop that never sleeps is throttled
@@ -226,6 +237,7 @@ static int play_file(struct pk_posix_timer *timer, const struct pk_hal *hal, str
     }
     if (realtime_setup(rt) != 0)
         return 1;
+    edge_gap_follow(timer, &m);
     pk_sim_job_init(&job, &m, mcfg, prog, strlen(prog));
     int stopped = pk_posix_run(timer, job_turn, &job, &run_stop);
     if (stopped)
@@ -272,6 +284,7 @@ static int serve_main(void *arg, uint64_t now)
     int woke = rc & PK_SERVE_PORT_RX;
     uint32_t lines0 = s->app.g.stats.lines;
     pk_app_poll(&s->app);
+    edge_gap_follow(s->timer, &s->app.m);
     if ((rc = pk_serial_pump(&s->port.ser, &s->app.uart)) < 0) {
         s->io_errno = -rc;
         run_stop = 1;
@@ -323,6 +336,7 @@ static int serve(struct pk_posix_timer *timer, const struct pk_hal *hal, const s
     else
         printf("plotkin-gpiod: Grbl 1.1 on %s (link %s)\n", s.port.ser.path, o->link);
     fflush(stdout);
+    edge_gap_follow(timer, &s.app.m);
     (void)pk_posix_run(timer, serve_main, &s, &run_stop);
     (void)pk_machine_reset(&s.app.m); /* stop the motion now, keep the position */
     pk_um_t um[PK_AXES];
@@ -417,13 +431,6 @@ int main(int argc, char **argv)
     struct pk_hal base, hal;
     pk_posix_timer_init(&timer, mcfg.tick_hz);
     pk_posix_timer_hal(&timer, &base);
-    /* Two edges never closer than the step pulse or the direction set-up
-     * (whichever is longer, as configured at start; one tick of margin for
-     * the clock's resolution), however late a callback ran. */
-    {
-        double gap_us = mcfg.step_pulse_us > mcfg.dir_setup_us ? mcfg.step_pulse_us : mcfg.dir_setup_us;
-        timer.min_gap_ticks = (uint64_t)(gap_us * mcfg.tick_hz / 1e6 + 0.999) + 1u;
-    }
 #ifdef PLOTKIN_GPIOD_MOCK
     static struct pk_board_mock mock;
     if (pk_board_mock_attach(&mock, &bcfg, &timer, err, sizeof err) != 0) {
