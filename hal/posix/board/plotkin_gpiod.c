@@ -374,6 +374,10 @@ static int serve(struct pk_posix_timer *timer, const struct pk_hal *hal, const s
 int main(int argc, char **argv)
 {
     struct opts o;
+    if (argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
     if (parse_opts(argc, argv, &o) != 0) {
         fputs(usage_text, stderr);
         return 2;
