@@ -68,12 +68,18 @@ else
 fi
 [[ ! -e $tmp/tty ]] && ok "the --link symlink is removed on exit" || bad "the --link symlink is removed on exit"
 read -r n nok nerr <<<"$lines"
-# The client sent 150 + 1 + 8 (hold) + 2 + 2 (reset, unlock, $X) + 2 + $I = 166
-# lines, one of them refused on purpose (error:9 while locked).
-if [[ "$n $nok $nerr" == "166 165 1" ]]; then
-  ok "the board answered every line the client sent exactly once (166: 165 ok, 1 error:9)"
+# The client sent $I + 150 + 1 + 8 (hold) + 2 + 2 (locked G0, $X) + 2
+# (vanishing) + 2 (G0 Z1, $X) = 168 lines, one refused on purpose (error:9
+# while locked).
+if [[ "$n $nok $nerr" == "168 167 1" ]]; then
+  ok "the board answered every line the client sent exactly once (168: 167 ok, 1 error:9)"
 else
-  bad "the board answered every line the client sent exactly once (166: 165 ok, 1 error:9)" "$lines"
+  bad "the board answered every line the client sent exactly once (168: 167 ok, 1 error:9)" "$lines"
+fi
+if grep -q "^plotkin-gpiod: alarm: gpiod: axis Z would move, but the board wires no" "$tmp/err"; then
+  ok "the operator is told why the board alarmed (axis Z has no lines)"
+else
+  bad "the operator is told why the board alarmed (axis Z has no lines)" "$(cat "$tmp/err")"
 fi
 if [[ -n $end ]]; then
   chk=$($PY tests/gpiod_trace_check.py "$tmp/trace" 17,27 22,23 80 $end 2>&1)

@@ -140,6 +140,21 @@ def main():
     st = g.wait_state({"Idle"}, 30)
     check("lines sent by a client that then vanished all run: the board ends on the last",
           near(mpos(st), vanish_end), (st, vanish_end))
+
+    # 5. A Z move on this X/Y board (no Z lines): an alarm, never a move no
+    # motor makes; Ctrl-X and $X bring it back where it was.
+    g.write(b"G0 Z1\n")
+    a = g.answer()
+    _, seen = g.wait_for(lambda l: l.startswith("ALARM:"), 10)
+    st = g.status()
+    g.write(b"\x18")
+    g.wait_for(lambda l: l.startswith("Grbl 1.1h"), 10)
+    g.write(b"$X\n")
+    g.answer()
+    st2 = g.wait_state({"Idle"}, 10)
+    check("a Z move on a board that wires no Z raises an alarm; reset and $X recover it",
+          a == 0 and st.startswith("<Alarm|") and near(mpos(st), vanish_end) and
+          near(mpos(st2), vanish_end), (a, seen, st, st2))
     g.close()
     print("END %.3f %.3f" % vanish_end[:2])
     passed = sum(results)

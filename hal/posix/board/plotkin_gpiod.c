@@ -263,6 +263,7 @@ struct serve {
     struct pk_serve_port port;
     struct pk_posix_timer *timer;
     int io_errno;          /* the serial line failed (stops the server) */
+    uint8_t in_alarm;      /* the machine's alarm was reported on stderr */
 };
 
 /* One turn of the board's main loop: the receive/transmit "interrupts"
@@ -285,6 +286,12 @@ static int serve_main(void *arg, uint64_t now)
     uint32_t lines0 = s->app.g.stats.lines;
     pk_app_poll(&s->app);
     edge_gap_follow(s->timer, &s->app.m);
+    /* The sender sees Grbl's ALARM:N; the operator sees why (a GPIO failure,
+     * a move on an axis with no lines, a limit switch). */
+    int alarm = pk_machine_state(&s->app.m) == PK_STATE_ALARM;
+    if (alarm && !s->in_alarm)
+        fprintf(stderr, "plotkin-gpiod: alarm: %s\n", pk_hal_error_text(s->app.gm.hal));
+    s->in_alarm = (uint8_t)alarm;
     if ((rc = pk_serial_pump(&s->port.ser, &s->app.uart)) < 0) {
         s->io_errno = -rc;
         run_stop = 1;
