@@ -38,6 +38,32 @@ stop() {   # -> rc
   wait "$srv"; local rc=$?; srv=""; return $rc
 }
 
+# A minimal sender: the pty in raw mode and until(pattern) reading answers.
+PRELUDE='import os, select, sys, time, tty
+fd = os.open(sys.argv[1], os.O_RDWR | os.O_NOCTTY); tty.setraw(fd)
+buf = b""
+def until(pat, t=10):
+    global buf
+    end = time.monotonic() + t
+    while pat not in buf and time.monotonic() < end:
+        if select.select([fd], [], [], 0.1)[0]: buf += os.read(fd, 4096)
+    return pat in buf
+'
+pysend() {  # pty; the sender's script on stdin
+  local body; body=$(cat)
+  timeout 30 $PY -c "$PRELUDE$body" "$1"
+}
+final_levels() {  # trace -> "line=level ..." as the lines were left on exit
+  $PY - "$1" <<'PYEOF'
+import sys
+lv = {}
+for r in open(sys.argv[1]):
+    if not r.startswith('#'):
+        t, d, l, v, i = r.split(); lv[int(l)] = int(v)
+print(" ".join("%d=%d" % (k, lv[k]) for k in sorted(lv)))
+PYEOF
+}
+
 for b in "$BUILD/plotkin-gpiod-mock" "$SAN/plotkin-gpiod-mock"; do
   [[ -x $b ]] || { bad "$b is built (make test-build)"; continue; }
 done
@@ -93,15 +119,7 @@ if [[ -n $end ]]; then
   fi
   # Released on exit: every line back at its inactive level, drivers disabled
   # (enable_invert 1: high), pen up.
-  fin=$($PY - "$tmp/trace" <<'PYEOF'
-import sys
-lv = {}
-for r in open(sys.argv[1]):
-    if not r.startswith('#'):
-        t, d, l, v, i = r.split(); lv[int(l)] = int(v)
-print(" ".join("%d=%d" % (k, lv[k]) for k in sorted(lv)))
-PYEOF
-)
+  fin=$(final_levels "$tmp/trace")
   [[ $fin =~ ^17=0\ 22=[01]\ 23=[01]\ 24=1\ 25=0\ 27=0$ ]] && ok "on exit the steps are low, the drivers disabled and the pen up ($fin)" \
     || bad "on exit the steps are low, the drivers disabled and the pen up" "$fin"
 fi
@@ -109,16 +127,7 @@ fi
 # 2. The sanitized build: greeting, a move, '?', Ctrl-X, SIGTERM.
 if [[ -x $SAN/plotkin-gpiod-mock ]]; then
   start "$SAN/plotkin-gpiod-mock" "$tmp/stty" "$tmp/strace"
-  got=$(timeout 30 $PY - "$tmp/stty" <<'PYEOF' 2>&1
-import os, select, sys, time, tty
-fd = os.open(sys.argv[1], os.O_RDWR | os.O_NOCTTY); tty.setraw(fd)
-buf = b""
-def until(pat, t=10):
-    global buf
-    end = time.monotonic() + t
-    while pat not in buf and time.monotonic() < end:
-        if select.select([fd], [], [], 0.1)[0]: buf += os.read(fd, 4096)
-    return pat in buf
+  got=$(pysend "$tmp/stty" <<'PYEOF' 2>&1
 os.write(fd, b"\x18"); until(b"Grbl 1.1h")
 os.write(fd, b"G1 X2.5 Y1.25 F3000\n"); until(b"ok")
 for _ in range(200):
@@ -141,16 +150,7 @@ fi
 # 3. SIGINT in the middle of a move: the motion stops at once, the lines are
 # released at their inactive levels, and the summary says where it stopped.
 start "$BUILD/plotkin-gpiod-mock" "$tmp/itty" "$tmp/itrace"
-got=$(timeout 20 $PY - "$tmp/itty" <<'PYEOF' 2>&1
-import os, select, sys, time, tty
-fd = os.open(sys.argv[1], os.O_RDWR | os.O_NOCTTY); tty.setraw(fd)
-buf = b""
-def until(pat, t=10):
-    global buf
-    end = time.monotonic() + t
-    while pat not in buf and time.monotonic() < end:
-        if select.select([fd], [], [], 0.1)[0]: buf += os.read(fd, 4096)
-    return pat in buf
+got=$(pysend "$tmp/itty" <<'PYEOF' 2>&1
 os.write(fd, b"\x18"); until(b"Grbl 1.1h")
 os.write(fd, b"M3\nG1 X100 Y50 F600\n"); until(b"ok\r\nok")
 for _ in range(300):
@@ -163,15 +163,7 @@ PYEOF
 kill -INT "$srv"
 for _ in $(seq 100); do kill -0 "$srv" 2>/dev/null || break; sleep 0.05; done
 wait "$srv"; rc=$?; srv=""
-fin=$($PY - "$tmp/itrace" <<'PYEOF'
-import sys
-lv = {}
-for r in open(sys.argv[1]):
-    if not r.startswith('#'):
-        t, d, l, v, i = r.split(); lv[int(l)] = int(v)
-print(" ".join("%d=%d" % (k, lv[k]) for k in sorted(lv)))
-PYEOF
-)
+fin=$(final_levels "$tmp/itrace")
 pos=$(sed -n 's/^  state [A-Za-z:0-9]*, position X\([0-9.]*\) Y\([0-9.]*\) .*/\1 \2/p' "$tmp/out")
 read -r px py <<<"$pos"
 if [[ $rc -eq 0 && $got == "<Run|"* && -n $pos ]] && grep -q "^plotkin-gpiod: stopped$" "$tmp/out" &&
