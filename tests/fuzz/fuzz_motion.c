@@ -30,6 +30,15 @@
  *     the previous one.
  *   - the machine finishes: with holds resumed, everything drains within a
  *     simulated-time budget derived from the program.
+ *
+ * Cost per input (the campaign's rate): the work is one timer callback per
+ * step edge and one main-loop poll per simulated millisecond, so each input
+ * gets a work budget: at most WORK_STEPS commanded steps (all axes) and
+ * WORK_MS simulated milliseconds of estimated motion, dwell and waiting. An
+ * op that would exceed either is skipped (its bytes are still consumed), so
+ * every program the harness issues still runs to its end and is checked
+ * exactly. Inputs are capped at MAX_INPUT bytes (tests/fuzz/fuzz_motion.options
+ * passes the same -max_len) and MAX_OPS ops.
  */
 #include "fuzz_common.h"
 #include "pk_motion.h"
@@ -39,6 +48,12 @@
 
 #define TICK_HZ 1000000u
 #define RING 32u
+#define MAX_INPUT 256u
+#define MAX_OPS 64u
+#define WORK_STEPS 600u
+#define WORK_MS 1000u
+
+static int VERBOSE; /* FUZZ_MOTION_VERBOSE set: print the program as it runs */
 
 /* ---- the harness's HAL ------------------------------------------------------ */
 static struct {
@@ -59,12 +74,13 @@ static struct {
     uint32_t pulse_ticks, setup_ticks;
     uint64_t last_write;
     uint64_t edges;
+    uint64_t reset_until;      /* a reset caught a pulse: idle from then on (0: none) */
 } H;
 
 static int h_fault(void)
 {
     if (H.fail_after == 0) {
-        if (getenv("FUZZ_MOTION_VERBOSE"))
+        if (VERBOSE)
             fprintf(stderr, "t=%.6f s: a HAL write fails (injected)\n", (double)H.now / TICK_HZ);
         H.failed = 1;
         H.failed_in_reset = H.in_reset;
@@ -216,6 +232,48 @@ static int64_t oracle_steps(pk_um_t um, pk_spmm_q16_t s)
 static struct pk_machine MACH;
 static struct pk_motion_cfg CFG;
 
+/* ---- work budget -------------------------------------------------------------------- */
+static struct {
+    uint64_t steps; /* steps commanded so far (all axes) */
+    double ms;      /* simulated ms the program needs, estimated */
+} W;
+
+/* Take the cost of an op from the budget; 0 (and nothing taken) if it does not fit. */
+static int work_take(uint64_t steps, double ms)
+{
+    if (W.steps + steps > WORK_STEPS || W.ms + ms > WORK_MS)
+        return 0;
+    W.steps += steps;
+    W.ms += ms;
+    return 1;
+}
+
+/* A move's steps and an upper estimate of its time, ms (feed 0: rapid): the
+ * length at the feed clamped to every axis's max rate, plus a full stop and
+ * start at the slowest axis's acceleration. */
+static int work_take_move(const pk_um_t *from, const pk_um_t *to, pk_um_min_t feed)
+{
+    uint64_t steps = 0;
+    double d2 = 0, v = feed ? feed / 60.0 : 1e12, acc = 1e12; /* um/s, um/s^2 */
+    for (unsigned a = 0; a < CFG.axes; a++) {
+        int64_t ds = oracle_steps(to[a], CFG.steps_per_mm_q16[a]) - oracle_steps(from[a], CFG.steps_per_mm_q16[a]);
+        steps += (uint64_t)(ds < 0 ? -ds : ds);
+        d2 += ((double)to[a] - from[a]) * ((double)to[a] - from[a]);
+    }
+    double d = sqrt(d2);
+    for (unsigned a = 0; a < CFG.axes; a++) {
+        double da = fabs((double)to[a] - from[a]);
+        if (da == 0)
+            continue;
+        double va = CFG.max_rate[a] / 60.0 * d / da;
+        if (va < v)
+            v = va;
+        if (CFG.accel[a] < acc)
+            acc = CFG.accel[a];
+    }
+    return work_take(steps, d > 0 ? 1000.0 * (d / v + v / acc) : 0.0);
+}
+
 static void check_position(void)
 {
     pk_steps_t p[PK_AXES];
@@ -241,13 +299,27 @@ static void poll_for(uint64_t ticks)
         uint64_t t = H.now + 1000u; /* the main loop runs every millisecond */
         advance(t < end ? t : end);
         check_position();
+        if (H.reset_until != 0u && H.now >= H.reset_until) {
+            if (VERBOSE)
+                fprintf(stderr, "t=%.6f s: %llu ticks after a reset caught a pulse: state %d, step lines %#x, timer %s\n",
+                        (double)H.now / TICK_HZ, (unsigned long long)(H.now - H.reset_until),
+                        (int)pk_machine_state(&MACH), (unsigned)H.step_raw, H.cb ? "armed" : "stopped");
+            FZ_CHECK(H.failed || (pk_machine_state(&MACH) == PK_STATE_IDLE && H.step_raw == 0u),
+                     "after the pulse a reset caught, the machine is idle, step lines low");
+            H.reset_until = 0;
+        }
     }
 }
 
+/* A request after a reset may start new motion (or hold it): the reset's own check ends. */
+static void requested(void) { H.reset_until = 0; }
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    struct fz_in in = { data, size, 0 };
+    struct fz_in in = { data, size < MAX_INPUT ? size : MAX_INPUT, 0 };
+    VERBOSE = getenv("FUZZ_MOTION_VERBOSE") != NULL;
     memset(&H, 0, sizeof H);
+    memset(&W, 0, sizeof W);
     H.fail_after = -1;
     memset(&CFG, 0, sizeof CFG);
     uint8_t b = fz_u8(&in);
@@ -279,7 +351,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct pk_hal hal = { &H_OPS, NULL, TICK_HZ, 0, 0, 0, 0 };
     int rc = pk_machine_init(&MACH, &CFG, &hal);
     if (rc != PK_MOTION_OK) {
-        if (getenv("FUZZ_MOTION_VERBOSE"))
+        if (VERBOSE)
             fprintf(stderr, "init refused: %d\n", rc);
         FZ_CHECK(rc == PK_MOTION_EINVAL, "init refuses only with EINVAL here");
         return 0;
@@ -290,10 +362,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     pk_um_t cur[PK_AXES] = { 0, 0, 0 };
     unsigned ops = 0;
     uint64_t budget = 0; /* simulated time the program may need */
-    while (fz_more(&in) && ops++ < 200u) {
+    while (fz_more(&in) && ops++ < MAX_OPS) {
         uint8_t op = fz_u8(&in);
         int r = PK_MOTION_OK;
-        if (getenv("FUZZ_MOTION_VERBOSE"))
+        if (VERBOSE)
             fprintf(stderr, "t=%.6f s: op %u, state %d\n", (double)H.now / TICK_HZ, op & 15u,
                     (int)pk_machine_state(&MACH));
         switch (op & 15u) {
@@ -304,6 +376,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 p[a] = v > 20000 ? 20000 : v < -20000 ? -20000 : v;
             }
             pk_um_min_t f = 300000u + (uint32_t)fz_u8(&in) * 24000u; /* 300..6420 mm/min */
+            if (!work_take_move(cur, p, f))
+                break;
+            requested();
             r = pk_machine_move(&MACH, p, f, PK_MOVE_FEED);
             if (r == PK_MOTION_OK) {
                 double d2 = 0;
@@ -320,6 +395,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             pk_um_t p[PK_AXES];
             for (unsigned a = 0; a < PK_AXES; a++)
                 p[a] = (pk_um_t)((int16_t)fz_u16(&in) % 20001);
+            if (!work_take_move(cur, p, 0))
+                break;
+            requested();
             r = pk_machine_move(&MACH, p, 0, PK_MOVE_RAPID);
             if (r == PK_MOTION_OK) {
                 memcpy(target, p, sizeof p);
@@ -341,42 +419,69 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
         case 7:
+            if (!work_take(0, CFG.pen_settle_ms + 1.0))
+                break;
+            requested();
             r = pk_machine_pen(&MACH, (op >> 4) & 1u);
             budget += TICK_HZ / 10u;
             break;
-        case 8:
-            r = pk_machine_dwell(&MACH, fz_u8(&in) & 31u);
+        case 8: {
+            uint32_t ms = fz_u8(&in) & 31u;
+            if (!work_take(0, ms + 1.0))
+                break;
+            requested();
+            r = pk_machine_dwell(&MACH, ms);
             budget += TICK_HZ / 10u;
             break;
+        }
         case 9: {
             struct pk_smooth_cfg s = CFG.smooth;
             uint8_t x = fz_u8(&in);
             s.mode = x % 3u;
             s.depth = (x >> 2) & 3u;
             s.tolerance_um = 1 + (x >> 4) * 50;
+            requested();
             r = pk_machine_set_smoothing(&MACH, &s);
             if (r == PK_MOTION_EINVAL)
                 r = PK_MOTION_OK;
             break;
         }
         case 10:
+            requested();
             r = pk_machine_end(&MACH);
             break;
-        case 11: /* time passes */
-            poll_for(((uint64_t)fz_u8(&in) + 1u) * 1000u);
+        case 11: { /* time passes */
+            uint64_t ms = (uint64_t)fz_u8(&in) + 1u;
+            if (work_take(0, (double)ms))
+                poll_for(ms * 1000u);
             break;
-        case 12:
+        }
+        case 12: {
+            uint64_t ms = (uint64_t)fz_u8(&in) & 63u;
+            if (!work_take(0, (double)ms))
+                break;
+            requested(); /* a hold in the tail of a reset's pulse may stop there (HOLD) */
             pk_machine_hold(&MACH);
-            poll_for(((uint64_t)fz_u8(&in) & 63u) * 1000u);
+            poll_for(ms * 1000u);
             pk_machine_resume(&MACH);
             break;
+        }
         case 13: { /* reset at this moment */
             do_reset();
             check_position();
             pk_steps_t p[PK_AXES];
             pk_machine_position_steps(&MACH, p);
-            if (!H.failed)
-                FZ_CHECK(pk_machine_state(&MACH) == PK_STATE_IDLE, "reset leaves an idle machine");
+            if (!H.failed && pk_machine_state(&MACH) != PK_STATE_IDLE) {
+                /* finding M2's fix: a step pulse high at the reset ends after
+                 * its full width (checked in h_step), then the timer stops */
+                uint64_t end = 0;
+                for (unsigned a = 0; a < PK_AXES; a++)
+                    if ((H.step_raw >> a) & 1u && H.rise[a] + H.pulse_ticks > end)
+                        end = H.rise[a] + H.pulse_ticks;
+                FZ_CHECK(H.step_raw != 0u && H.cb != NULL && H.next <= end,
+                         "a reset leaves an idle machine, or one ending a step pulse on time");
+                H.reset_until = end;
+            }
             /* the next moves start where the machine really is */
             pk_machine_position_um(&MACH, cur);
             memcpy(target, cur, sizeof cur);
@@ -392,6 +497,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             poll_for(1000u);
             break;
         }
+        if (VERBOSE && r != PK_MOTION_OK)
+            fprintf(stderr, "  -> %d\n", r);
         if (r == PK_MOTION_EFULL)
             poll_for(1000u); /* nothing changed: the producer waits */
         if (pk_machine_state(&MACH) == PK_STATE_ALARM) {
@@ -445,7 +552,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             FZ_CHECK(p[a] == oracle_steps(target[a], CFG.steps_per_mm_q16[a]),
                      "the final position is exactly the commanded one, in steps");
         }
-    if (getenv("FUZZ_MOTION_VERBOSE"))
+    if (VERBOSE)
         fprintf(stderr, "axes %u: %llu step edges, %.3f s simulated, position %d %d %d steps\n",
                 CFG.axes, (unsigned long long)H.edges, (double)H.now / TICK_HZ, (int)p[0], (int)p[1],
                 (int)p[2]);
