@@ -34,7 +34,7 @@ for t in "$@"; do
       -artifact_prefix="$dir/artifacts/$t-" "${opts[@]}" "${dict[@]}" "${extra[@]}" \
       "$work" "$seeds" >"$log" 2>&1; } 2>"$dir/$t.time"
   rc=$?
-  cpu=$(awk '{printf "%.0f", $1 + $2}' "$dir/$t.time" 2>/dev/null)
+  cpu=$(awk '{printf "%.1f", $1 + $2}' "$dir/$t.time" 2>/dev/null)
   # the last status line ("#N ... cov: C ft: F corp: K/..."; -fork prints "#N: cov: ...")
   last=$(grep -E '^#[0-9]+:?[[:space:]]' "$log" | tail -n1)
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n1)
