@@ -7,7 +7,8 @@
 #
 # Sources are discovered by wildcard so that adding a module needs no edit here:
 #   firmware/*.c           portable core (no OS, no heap, no float)
-#   hal/*.c hal/*/*.c      HAL helpers and host backends
+#   hal/*.c hal/*/*.c      HAL helpers and host backends (not hal/avr, hal/arm:
+#                          board backends, built by `make firmware`, hal/firmware.mk)
 #   host-sim/*.c           simulator and host tools (host-sim/main.c is the CLI entry)
 #   tests/test_*.c         one test program each, built twice (plain, sanitized)
 # Area-specific rules live in */module.mk fragments, included at the end.
@@ -27,7 +28,7 @@ SANFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
             -fno-sanitize-recover=all
 
 FW_SRC   := $(sort $(wildcard firmware/*.c))
-HAL_SRC  := $(sort $(wildcard hal/*.c) $(wildcard hal/*/*.c))
+HAL_SRC  := $(sort $(filter-out hal/avr/% hal/arm/%,$(wildcard hal/*.c) $(wildcard hal/*/*.c)))
 SIM_SRC  := $(sort $(filter-out host-sim/main.c,$(wildcard host-sim/*.c)))
 TH_SRC   := tests/th.c tests/th_host.c
 TEST_SRC := $(sort $(wildcard tests/test_*.c))

@@ -573,7 +573,7 @@ static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES])
     if (memcmp(q, last, sizeof st->cand) == 0)
         return;
     if (st->axes > 2u) {
-        for (unsigned i = 2; i < st->axes; i++) {
+        for (unsigned i = 2; i < st->axes && i < PK_AXES; i++) {
             if (q[i] != st->anchor[i] || (st->have_cand && st->cand[i] != st->anchor[i])) {
                 /* out of the XY plane of the chord: keep every point */
                 if (st->have_cand)

@@ -24,3 +24,6 @@ $(BUILD)/plotkin-gpiod: $(BUILD)/obj/hal/posix/board/plotkin_gpiod.o $(BUILD)/li
 
 # `make test` builds the board binary too, so a change that breaks it fails CI.
 test-build: $(BUILD)/plotkin-gpiod
+
+# Flashable images of the bare-metal boards (hal/avr/, hal/arm/): `make firmware`.
+include hal/firmware.mk

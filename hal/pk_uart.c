@@ -22,10 +22,12 @@ void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx)
     atomic_init(&u->rx_tail, 0);
     atomic_init(&u->tx_head, 0);
     atomic_init(&u->tx_tail, 0);
-    atomic_init(&u->rx_dropped, 0);
+    for (unsigned i = 0; i < 4u; i++)
+        atomic_init(&u->rx_drop_b[i], 0);
+    atomic_init(&u->rx_drop_seq, 0);
     atomic_init(&u->rx_overflows, 0);
     atomic_init(&u->rx_lost_at, 0);
-    u->rx_overflows_seen = 0;
+    atomic_init(&u->rx_overflows_seen, 0);
     u->filter = filter;
     u->filter_ctx = ctx;
 }
@@ -37,6 +39,39 @@ static uint8_t rx_used(const struct pk_uart *u)
     return (uint8_t)(h - t);
 }
 
+/* Receive side only: add one to the 32-bit drop count under its seqlock. */
+static void drop_count(struct pk_uart *u)
+{
+    uint8_t seq = atomic_load_explicit(&u->rx_drop_seq, memory_order_relaxed);
+    atomic_store_explicit(&u->rx_drop_seq, (uint8_t)(seq + 1u), memory_order_relaxed);
+    atomic_thread_fence(memory_order_release);
+    uint8_t carry = 1u;
+    for (unsigned i = 0; i < 4u && carry; i++) {
+        uint8_t b = (uint8_t)(atomic_load_explicit(&u->rx_drop_b[i], memory_order_relaxed) + 1u);
+        atomic_store_explicit(&u->rx_drop_b[i], b, memory_order_relaxed);
+        carry = b == 0u;
+    }
+    atomic_store_explicit(&u->rx_drop_seq, (uint8_t)(seq + 2u), memory_order_release);
+}
+
+/* Receive side only: one byte lost at RX index h. One event per run of lost
+ * bytes: a new event only once the main loop has seen the previous one (so
+ * ev - seen is 0 or 1 and an 8-bit counter is exact). */
+static void rx_loss(struct pk_uart *u, uint8_t h)
+{
+    drop_count(u);
+    uint8_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
+    if (ev == atomic_load_explicit(&u->rx_overflows_seen, memory_order_acquire)) {
+        atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
+        atomic_store_explicit(&u->rx_overflows, (uint8_t)(ev + 1u), memory_order_release);
+    }
+}
+
+void pk_uart_rx_lost(struct pk_uart *u)
+{
+    rx_loss(u, atomic_load_explicit(&u->rx_head, memory_order_relaxed));
+}
+
 int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
 {
     if (u->filter != NULL && u->filter(u->filter_ctx, byte))
@@ -44,14 +79,7 @@ int pk_uart_rx_push(struct pk_uart *u, uint8_t byte)
     uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_relaxed);
     uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_acquire);
     if ((uint8_t)(h - t) >= PK_UART_RX_SIZE) {
-        atomic_fetch_add_explicit(&u->rx_dropped, 1u, memory_order_relaxed);
-        /* One event per run of lost bytes: a new event only once the main
-         * loop has seen the previous one. */
-        uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_relaxed);
-        if (ev == u->rx_overflows_seen) {
-            atomic_store_explicit(&u->rx_lost_at, h, memory_order_relaxed);
-            atomic_store_explicit(&u->rx_overflows, ev + 1u, memory_order_release);
-        }
+        rx_loss(u, h);
         return PK_UART_RX_DROPPED;
     }
     u->rx[h & RX_MASK] = byte;
@@ -65,14 +93,14 @@ size_t pk_uart_rx_used(const struct pk_uart *u) { return rx_used(u); }
 
 int pk_uart_read(struct pk_uart *u, uint8_t *buf, size_t len)
 {
-    uint32_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_acquire);
+    uint8_t ev = atomic_load_explicit(&u->rx_overflows, memory_order_acquire);
     uint8_t t = atomic_load_explicit(&u->rx_tail, memory_order_relaxed);
     uint8_t h = atomic_load_explicit(&u->rx_head, memory_order_acquire);
-    if (ev != u->rx_overflows_seen) {
+    if (ev != atomic_load_explicit(&u->rx_overflows_seen, memory_order_relaxed)) {
         /* Deliver up to the point of loss, then report it there. */
         uint8_t at = atomic_load_explicit(&u->rx_lost_at, memory_order_relaxed);
         if (t == at) {
-            u->rx_overflows_seen = ev;
+            atomic_store_explicit(&u->rx_overflows_seen, ev, memory_order_release);
             return PK_HAL_EIO;
         }
         h = at;
@@ -121,12 +149,22 @@ size_t pk_uart_tx_pop(struct pk_uart *u, uint8_t *buf, size_t len)
 
 uint32_t pk_uart_rx_dropped(const struct pk_uart *u)
 {
-    return atomic_load_explicit(&u->rx_dropped, memory_order_relaxed);
+    for (;;) {
+        uint8_t s0 = atomic_load_explicit(&u->rx_drop_seq, memory_order_acquire);
+        uint32_t v = 0;
+        for (unsigned i = 4u; i-- > 0u;)
+            v = (v << 8) | atomic_load_explicit(&u->rx_drop_b[i], memory_order_relaxed);
+        atomic_thread_fence(memory_order_acquire);
+        uint8_t s1 = atomic_load_explicit(&u->rx_drop_seq, memory_order_relaxed);
+        if (s0 == s1 && (s0 & 1u) == 0u)
+            return v;
+    }
 }
 
 int pk_uart_rx_overflow_pending(const struct pk_uart *u)
 {
-    return atomic_load_explicit(&u->rx_overflows, memory_order_acquire) != u->rx_overflows_seen;
+    return atomic_load_explicit(&u->rx_overflows, memory_order_acquire) !=
+           atomic_load_explicit(&u->rx_overflows_seen, memory_order_relaxed);
 }
 
 int pk_uart_read_cb(void *ctx, uint8_t *buf, size_t len)

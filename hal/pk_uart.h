@@ -11,6 +11,18 @@
  * 8-bit counters published with C11 release/acquire atomics, so all
  * PK_UART_*_SIZE slots are usable and a byte is visible before its index.
  *
+ * Every object shared between the two sides is one byte wide, so every
+ * access is a single load or store on any target (an 8-bit AVR included)
+ * and no target needs the __atomic_*_4 library helpers that a 32-bit atomic
+ * becomes on AVR and Cortex-M0+ (which neither libgcc, newlib nor avr-libc
+ * provide). The cumulative drop counter is 32 bits made of four atomic
+ * bytes under an 8-bit sequence counter (a seqlock): the receive side makes
+ * the sequence odd, writes the bytes, makes it even again; a reader retries
+ * until it sees the same even sequence before and after its read. On a
+ * board the receive side is an interrupt that the main loop cannot
+ * interrupt, so the reader never retries more than once per interrupt; on a
+ * host the same protocol is correct between two threads.
+ *
  * Realtime bytes: a filter installed at init sees every received byte first,
  * in the receive context; when it claims a byte (Grbl's '?', '!', '~', 0x18)
  * the byte is acted on there and never enters the ring, so it can neither be
@@ -65,10 +77,14 @@ struct pk_uart {
     _Atomic uint8_t rx_tail;      /**< written by the main loop only */
     _Atomic uint8_t tx_head;      /**< written by the main loop only */
     _Atomic uint8_t tx_tail;      /**< written by the transmit side only */
-    _Atomic uint32_t rx_dropped;  /**< bytes lost to a full ring (receive side) */
-    _Atomic uint32_t rx_overflows;/**< overflow events (receive side) */
+    _Atomic uint8_t rx_drop_b[4]; /**< bytes lost to a full ring, little-endian
+                                       (receive side; read with pk_uart_rx_dropped) */
+    _Atomic uint8_t rx_drop_seq;  /**< seqlock of rx_drop_b: odd while it is written */
+    _Atomic uint8_t rx_overflows; /**< overflow events mod 256 (receive side); it runs
+                                       at most one ahead of rx_overflows_seen */
     _Atomic uint8_t rx_lost_at;   /**< RX index where the first unreported loss happened */
-    uint32_t rx_overflows_seen;   /**< main loop's copy: flag = overflows != seen */
+    _Atomic uint8_t rx_overflows_seen; /**< main loop's copy: flag = overflows != seen
+                                       (written by the main loop only) */
     pk_uart_rt_filter filter;
     void *filter_ctx;
 };
@@ -90,6 +106,13 @@ void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx);
 
 /** [ISR / receive side] Offer one received byte. See enum pk_uart_rx_result. */
 int pk_uart_rx_push(struct pk_uart *u, uint8_t byte);
+
+/**
+ * [ISR / receive side] Report one byte lost before it reached the ring (a
+ * UART data overrun or framing error): counted and flagged exactly like a
+ * byte that found the ring full, at the current position of the stream.
+ */
+void pk_uart_rx_lost(struct pk_uart *u);
 
 /** [receive side] Free RX slots right now (a pump reads at most this many). */
 size_t pk_uart_rx_space(const struct pk_uart *u);

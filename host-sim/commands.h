@@ -10,5 +10,6 @@
 int cmd_refine(int argc, char **argv); /* host-sim/cmd_refine.c */
 int cmd_sim(int argc, char **argv);    /* host-sim/cmd_sim.c */
 int cmd_serve(int argc, char **argv);  /* host-sim/cmd_serve.c */
+int cmd_avrsim(int argc, char **argv); /* host-sim/cmd_avrsim.c */
 
 #endif

@@ -16,6 +16,7 @@ static const struct pk_command commands[] = {
     { "refine", cmd_refine, "smooth a polyline read from stdin (subdivision kernel)" },
     { "sim", cmd_sim, "run a G-code or polyline file through the firmware on a simulated machine" },
     { "serve", cmd_serve, "run the simulated machine in real time, speaking Grbl 1.1 on a pty" },
+    { "avrsim", cmd_avrsim, "run a board's firmware image on an emulated AVR (simavr)" },
 };
 
 static void usage(FILE *f)

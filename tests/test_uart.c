@@ -70,6 +70,56 @@ static void test_the_rx_ring_holds_exactly_its_size_and_counts_every_lost_byte(v
     TH_EXPECT_EQ(pk_uart_rx_dropped(&u), 6);
 }
 
+/* The shared counters are bytes (no 32-bit atomics on AVR / Cortex-M0+):
+ * the drop count must carry across its bytes exactly, and the 8-bit overflow
+ * event counter must keep reporting every overflow after it wraps. */
+static void test_the_drop_count_carries_across_bytes_and_events_survive_wrapping(void)
+{
+    static struct pk_uart u;
+    pk_uart_init(&u, NULL, NULL);
+    uint8_t buf[PK_UART_RX_SIZE];
+    uint32_t lost = 0;
+    for (int ev = 0; ev < 300; ev++) {
+        while (pk_uart_rx_space(&u) > 0)
+            TH_ASSERT_EQ(pk_uart_rx_push(&u, 7), PK_UART_RX_STORED);
+        /* 70,000 bytes lost in the first event carries into the third byte. */
+        uint32_t k = ev == 0 ? 70000u : 1u + (uint32_t)ev % 3u;
+        for (uint32_t i = 0; i < k; i++)
+            TH_ASSERT_EQ(pk_uart_rx_push(&u, 9), PK_UART_RX_DROPPED);
+        lost += k;
+        TH_ASSERT_EQ(pk_uart_rx_dropped(&u), lost);
+        TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_UART_RX_SIZE);
+        TH_ASSERT(pk_uart_rx_overflow_pending(&u));
+        TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_HAL_EIO);
+        TH_ASSERT(!pk_uart_rx_overflow_pending(&u));
+        TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), 0);
+    }
+    TH_EXPECT_EQ(lost, 70599u); /* 70000 + sum over ev = 1..299 of 1 + ev % 3 */
+}
+
+/* A byte the UART hardware lost (overrun, framing error) is reported exactly
+ * like one the ring had no room for: where it went missing, once. */
+static void test_a_byte_lost_by_the_hardware_is_reported_where_it_went_missing(void)
+{
+    static struct pk_uart u;
+    pk_uart_init(&u, NULL, NULL);
+    const char *a = "G1 X1\n", *b = "G1 X2\n";
+    for (const char *p = a; *p; p++)
+        TH_ASSERT_EQ(pk_uart_rx_push(&u, (uint8_t)*p), PK_UART_RX_STORED);
+    pk_uart_rx_lost(&u);
+    pk_uart_rx_lost(&u); /* a run of losses is one event */
+    for (const char *p = b; *p; p++)
+        TH_ASSERT_EQ(pk_uart_rx_push(&u, (uint8_t)*p), PK_UART_RX_STORED);
+    TH_EXPECT_EQ(pk_uart_rx_dropped(&u), 2);
+    uint8_t buf[32];
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), (int)strlen(a));
+    TH_EXPECT(memcmp(buf, a, strlen(a)) == 0);
+    TH_EXPECT_EQ(pk_uart_read(&u, buf, sizeof buf), PK_HAL_EIO);
+    TH_ASSERT_EQ(pk_uart_read(&u, buf, sizeof buf), (int)strlen(b));
+    TH_EXPECT(memcmp(buf, b, strlen(b)) == 0);
+    TH_EXPECT(!pk_uart_rx_overflow_pending(&u));
+}
+
 struct rt_log { uint8_t seen[16]; int n; };
 static int rt_filter(void *ctx, uint8_t b)
 {
@@ -203,6 +253,8 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_bytes_come_out_in_order_across_many_wraparounds),
         TH_CASE(test_the_rx_ring_holds_exactly_its_size_and_counts_every_lost_byte),
+        TH_CASE(test_the_drop_count_carries_across_bytes_and_events_survive_wrapping),
+        TH_CASE(test_a_byte_lost_by_the_hardware_is_reported_where_it_went_missing),
         TH_CASE(test_realtime_bytes_are_claimed_and_never_stored_even_when_full),
         TH_CASE(test_tx_accepts_only_what_fits_and_pops_in_order),
         TH_CASE(test_a_pty_client_and_the_shim_exchange_bytes_both_ways),

@@ -45,6 +45,15 @@ for t in m0plus m4 avr; do
   check "$t" STEP_DIVIDE 1 "step path calls __.*: fwc_step -> fwc_helper" --step-func fwc_step
   check "$t" CLEAN 1 "step-path function fwc_stepper not found" --step-func fwc_stepper
 done
+# Board images: a static named with --allow-static passes (the image's one
+# controller / backend instance), any other static still fails.
+for t in m0plus avr; do
+  mkdir -p "$tmp/sym-$t"
+  ${CC[$t]} $OPT ${FL[$t]} -DCASE_STATIC -c tests/targets/fwcheck_cases.c -o "$tmp/sym-$t/fwcheck_cases.o"
+  sym=$(${PFX[$t]}nm "$tmp/sym-$t/fwcheck_cases.o" | awk '$2 ~ /^[bBdD]$/ {print $3; exit}')
+  check "$t" STATIC 0 "static storage allowed for $sym" --allow-static "fwcheck_cases.o:$sym"
+  check "$t" STATIC 1 "mutable static storage .*: $sym" --allow-static fwcheck_cases.o:app
+done
 check m0plus FLOAT 1 "floating point (soft-float helper or libm): __aeabi_f"
 check m4 FLOAT 1 "floating-point instruction: .*vmul"
 check avr FLOAT 1 "floating point (soft-float helper or libm): __"

@@ -1,0 +1,21 @@
+# hal/avr/mega-ramps/board.mk — the image for an Arduino Mega 2560 + RAMPS 1.4
+# (board.h has the pin map). Read by hal/firmware.mk: one source list per
+# board, the compile-time size knobs of this build, and its budget.
+BOARD_ARCH  := avr
+BOARD_MCU   := atmega2560
+BOARD_F_CPU := 16000000UL
+BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
+               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo16.c hal/pk_app.c hal/pk_uart.c
+# Three axes, every scheme the motion core uses (the default PK_WIN), queues
+# sized for 8 KB of RAM.
+BOARD_DEFS  := -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64
+# ATmega2560 with the stock STK500v2 bootloader (8 KB): 262,144 - 8,192 B of
+# flash, 8,192 B of RAM.
+BOARD_FLASH_MAX := 253952
+BOARD_RAM_MAX   := 8192
+# The motion core never uses the kernel's limit stage: link without it.
+BOARD_KERNEL_LIMIT := 0
+# The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
+# image's only statics (the controller and the backend instance).
+BOARD_STEP_ISR := __vector_32
+BOARD_STATICS  := pk_avr_main.o:app pk_avr_hal.o:pk_avr_board

@@ -1,0 +1,83 @@
+/*
+ * pk_avr.h — the HAL backend shared by plotkin's AVR boards (Klipper's
+ * src/avr/): pin writes, the step timer, critical sections, the UART and the
+ * pen servo, on top of one board's hal/avr/<board>/board.h, which alone names
+ * the pins, timers and vectors (compiled with -Ihal/avr/<board>).
+ *
+ * One image drives one machine, so there is exactly one backend instance,
+ * pk_avr_board, the only object of the image outside the caller-owned
+ * structs: interrupt vectors take no argument, so the ISRs reach their state
+ * through it. Everything else stays in struct pk_app (hal/pk_app.h).
+ *
+ * Step timer (pk_avr_timer.c): a free-running 16-bit timer at
+ * PK_BOARD_TICK_HZ (2 MHz), extended to 48 bits by its overflow interrupt; the
+ * callback runs from the compare interrupt at the tick it asked for. An event
+ * due sooner than PK_AVR_TIMER_LEAD ticks after the previous one is not armed
+ * (the compare could be passed before it is written) but waited for inside
+ * the interrupt, so no event is ever early and none is lost.
+ *
+ * Calling contexts are those of struct pk_hal_ops (hal.h); everything here
+ * that the main loop calls saves SREG and disables interrupts around what
+ * the ISRs also touch.
+ */
+#ifndef PLOTKIN_PK_AVR_H
+#define PLOTKIN_PK_AVR_H
+
+#include <stdint.h>
+#include "hal.h"
+#include "pk_uart.h"
+
+/** Events closer than this (ticks) are waited for inside the ISR instead of
+ *  being armed on the compare unit (leaving and re-entering the interrupt
+ *  would take longer). Any value is safe: an event whose compare value the
+ *  counter passed while it was being written is run at once. */
+#define PK_AVR_TIMER_LEAD 4u
+
+/** The backend instance (private members: use the functions and the ops). */
+struct pk_avr {
+    struct pk_hal hal;            /**< what the core uses: ops, ctx = this, polarity */
+    /* step timer */
+    pk_hal_timer_cb cb;           /**< set by timer_start (MAIN, ISR off) */
+    void *cb_arg;
+    uint32_t next_hi;             /**< tick of the pending callback, bits 16..47 (ISR) */
+    uint16_t next_lo;             /**< and bits 0..15 */
+    volatile uint32_t ovf;        /**< timer overflows (ISR writes; read with ISR off) */
+    volatile uint8_t armed;       /**< compare interrupt enabled */
+    /* serial */
+    struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
+    /* servo */
+    volatile uint16_t servo_ocr;  /**< compare value to apply at the next safe point */
+    volatile uint8_t servo_phase; /**< pk_avr_servo8.c: period of the 5-period frame */
+};
+
+/** The image's one backend instance (defined in pk_avr_hal.c). */
+extern struct pk_avr pk_avr_board;
+
+/** Set up pins, step timer, servo (pen up) and the UART registers (receive
+ *  interrupt still off) and fill a->hal. MAIN, interrupts off. */
+void pk_avr_init(struct pk_avr *a);
+
+/** Attach the UART rings and enable the receive interrupt. MAIN. */
+void pk_avr_uart_start(struct pk_avr *a, struct pk_uart *u);
+
+/** Start the transmitter if bytes are queued (call after every main-loop
+ *  iteration). MAIN. */
+void pk_avr_uart_kick(struct pk_avr *a);
+
+/* ---- parts of the ops table, one file each (pk_avr_hal.c fills the table) -- */
+/** Step timer (pk_avr_timer.c). */
+void pk_avr_timer_init(struct pk_avr *a);
+int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick);
+int pk_avr_timer_stop(void *ctx);
+uint64_t pk_avr_clock_ticks(void *ctx);
+
+/** Pen servo (pk_avr_servo8.c or pk_avr_servo16.c, as the board's source
+ *  list chooses): value_q16 = fraction of the board's pulse range
+ *  PK_BOARD_SERVO_MIN_US .. PK_BOARD_SERVO_MAX_US. [ISR][MAIN] */
+void pk_avr_servo_init(struct pk_avr *a);
+int pk_avr_servo_write(void *ctx, uint16_t value_q16);
+
+/** Serial line (pk_avr_uart.c). */
+void pk_avr_uart_init(struct pk_avr *a);
+
+#endif

@@ -1,0 +1,91 @@
+/*
+ * pk_avr_hal.c — the ops table of the AVR backend: pin writes through the
+ * board's inline functions, critical sections on SREG, the pen as a servo
+ * (see pk_avr.h).
+ *
+ * Polarity: the CNC shield and RAMPS drivers (A4988/DRV8825) step on a rising
+ * edge, take direction as wired, and are enabled by a low ENABLE line; the
+ * pen tool output is the servo (tool level 1 = pen down = the far end of the
+ * servo range). The UART is not in the table: the controller (hal/pk_app.h)
+ * reads and writes the rings of pk_uart.h directly.
+ */
+#include "pk_avr.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include "board.h"
+
+struct pk_avr pk_avr_board;
+
+static int avr_step_write(void *ctx, uint32_t mask, uint32_t levels)
+{
+    (void)ctx;
+    pk_board_step_write((uint8_t)mask, (uint8_t)levels);
+    return PK_HAL_OK;
+}
+
+static int avr_dir_write(void *ctx, uint32_t mask, uint32_t levels)
+{
+    (void)ctx;
+    pk_board_dir_write((uint8_t)mask, (uint8_t)levels);
+    return PK_HAL_OK;
+}
+
+static int avr_enable_write(void *ctx, uint32_t mask, uint32_t levels)
+{
+    (void)ctx;
+    uint8_t s = SREG;
+    cli();
+    pk_board_enable_write((uint8_t)mask, (uint8_t)levels);
+    SREG = s;
+    return PK_HAL_OK;
+}
+
+/* The pen: up is the start of the servo range, down its end. */
+static int avr_tool_write(void *ctx, uint32_t level)
+{
+    return pk_avr_servo_write(ctx, level ? 0xFFFFu : 0u);
+}
+
+static uint32_t avr_irq_save(void *ctx)
+{
+    (void)ctx;
+    uint8_t s = SREG;
+    cli();
+    return s;
+}
+
+static void avr_irq_restore(void *ctx, uint32_t token)
+{
+    (void)ctx;
+    SREG = (uint8_t)token;
+}
+
+static const struct pk_hal_ops avr_ops = {
+    .version = PK_HAL_VERSION,
+    .step_write = avr_step_write,
+    .dir_write = avr_dir_write,
+    .enable_write = avr_enable_write,
+    .tool_write = avr_tool_write,
+    .spindle_write = pk_avr_servo_write,
+    .timer_start = pk_avr_timer_start,
+    .timer_stop = pk_avr_timer_stop,
+    .clock_ticks = pk_avr_clock_ticks,
+    .irq_save = avr_irq_save,
+    .irq_restore = avr_irq_restore,
+};
+
+void pk_avr_init(struct pk_avr *a)
+{
+    a->hal.ops = &avr_ops;
+    a->hal.ctx = a;
+    a->hal.tick_hz = PK_BOARD_TICK_HZ;
+    a->hal.step_invert = 0u;
+    a->hal.dir_invert = 0u;
+    a->hal.enable_invert = (1u << PK_BOARD_AXES_WIRED) - 1u;
+    a->hal.tool_invert = 0u;
+    pk_board_pins_init();
+    pk_avr_timer_init(a);
+    pk_avr_servo_init(a);
+    pk_avr_uart_init(a);
+}

@@ -1,0 +1,30 @@
+# hal/avr/uno-cnc-shield/board.mk — the image for an Arduino Uno + CNC shield V3
+# (board.h has the pin map). Read by hal/firmware.mk: one source list per
+# board, the compile-time size knobs of this build, and its budget.
+BOARD_ARCH  := avr
+BOARD_MCU   := atmega328p
+BOARD_F_CPU := 16000000UL
+BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
+               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/pk_app.c hal/pk_uart.c
+# Two axes + pen, Chaikin/B-spline smoothing only (2 points of history per
+# level), short queues: see the size table of `make firmware`.
+BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+               -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
+               -DPK_UART_TX_SIZE=64
+# Shared register save/restore sequences: about 5 % less flash, a few cycles
+# more per call of a function that saves many registers.
+BOARD_CFLAGS := -mcall-prologues
+# The host comparator (`plotkin sim` with this build's knobs): plotkin sim's
+# job feeds a line only when 5 requests fit (host-sim/sim_job.c), so it needs
+# a deeper request FIFO than the Grbl engine on the board; the FIFO depth
+# does not change what the engine does.
+BOARD_HOST_DEFS := -UPK_MACHINE_INQ -DPK_MACHINE_INQ=8
+# ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
+BOARD_FLASH_MAX := 32256
+BOARD_RAM_MAX   := 2048
+# The motion core never uses the kernel's limit stage: link without it.
+BOARD_KERNEL_LIMIT := 0
+# The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
+# image's only statics (the controller and the backend instance).
+BOARD_STEP_ISR := __vector_11
+BOARD_STATICS  := pk_avr_main.o:app pk_avr_hal.o:pk_avr_board

@@ -1,0 +1,26 @@
+/*
+ * pk_app.c — the board-independent controller: Grbl engine + machine + UART
+ * rings (see pk_app.h).
+ */
+#include "pk_app.h"
+
+#include <string.h>
+
+int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
+{
+    memset(app, 0, sizeof *app);
+    app->gm.m = &app->m;
+    app->gm.hal = hal;
+    pk_uart_init(&app->uart, pk_grbl_rt_filter, &app->g);
+    struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb,
+                                 &app->uart };
+    struct pk_grbl_machine_ops ops;
+    pk_grbl_motion_ops(&ops);
+    return pk_grbl_init(&app->g, &io, &ops, &app->gm, NULL) == 0 ? 0 : -1;
+}
+
+void pk_app_poll(struct pk_app *app)
+{
+    pk_grbl_poll(&app->g);
+    pk_machine_poll(&app->m);
+}
