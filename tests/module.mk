@@ -75,19 +75,19 @@ soak: $(BUILD)/plotkin
 # reported in tests/fuzz/README.md, and tests/fuzz/findings/findings_*.c unit
 # tests of their own (failing while the finding is open, hence not in make
 # test). `make fuzz-findings` runs those and replays each input through
-# the target built with -DFZ_STRICT=7 (the allowances the fuzz targets make
+# the target built with -DFZ_STRICT=255 (every allowance the fuzz targets make
 # for known findings removed) and says REPRODUCED or FIXED for each; once the
 # owner's fix makes every one FIXED, drop the allowance and move the inputs
 # into tests/fuzz/corpus/ so `make test` keeps them fixed.
 $(BUILD)/fuzz-strict/%: tests/fuzz/%.c tests/fuzz/replay_main.c $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(WARN) $(SANFLAGS) -DFZ_STRICT=7 -o $@ $< tests/fuzz/replay_main.c \
+	$(CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(WARN) $(SANFLAGS) -DFZ_STRICT=255 -o $@ $< tests/fuzz/replay_main.c \
 	    $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
 $(BUILD)/fuzz/strict_%: $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o $(BUILD)/fuzz/libfuzzdeps.a
 	$(FUZZ_CC) $(FUZZ_SAN) -fsanitize=fuzzer -o $@ $< $(BUILD)/fuzz/libfuzzdeps.a $(HOST_LIBS)
 $(FUZZ_OBJDIR)/tests/fuzz/strict_%.o: tests/fuzz/%.c
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) $(call fuzz_cmp,$<) -DFZ_STRICT=7 -MMD -MP -c $< -o $@
+	$(FUZZ_CC) $(CPPFLAGS_COMMON) -Itests/fuzz $(FUZZ_CFLAGS) $(call fuzz_cmp,$<) -DFZ_STRICT=255 -MMD -MP -c $< -o $@
 
 $(BUILD)/fuzz-strict/findings_%: tests/fuzz/findings/findings_%.c $(TH_OBJ_S) $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
 	@mkdir -p $(@D)
