@@ -258,9 +258,11 @@ static void greet(struct pk_grbl *g)
 
 static void status_report(struct pk_grbl *g)
 {
+    /* the state first: a machine that is stopped (Idle, Hold:0) when asked
+     * is still stopped when its position is read after, so the two agree */
+    int st = mstate(g);
     pk_um_t pos[PK_GC_AXES];
     g->mo.position_um(g->m, pos);
-    int st = mstate(g);
     puts_(g, "<");
     if (st == PK_GRBL_M_ALARM || g->alarm)
         puts_(g, "Alarm");

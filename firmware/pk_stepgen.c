@@ -2,22 +2,29 @@
  * pk_stepgen.c — chunk preparation (main loop) and pulse emission (timer
  * callback). See pk_stepgen.h for the scheme; the kinematics are below.
  *
- * Speed profile inside a block, as speed^2 against distance s (µm Q8) from
- * the block start, anchored at the prepared state (s0, v2_0):
+ * Segments of constant time. The main loop cuts the tail block into
+ * segments of seg_ticks (2 ms, at most 2^14 ticks), like Grbl's segment
+ * buffer: over one segment the speed goes from v0 to v1 = v0 +- a seg_t
+ * (accelerate towards the nominal, cruise, or decelerate towards the
+ * exit), so the segment covers ds = (v0 + v1)/2 seg_t. Its events are placed
+ * as under that constant acceleration: the first and last from the time at
+ * the mean speed corrected for the acceleration (at_time), the ones between
+ * by a linear ramp of the step interval, so the step rate changes smoothly
+ * inside a segment and across its boundaries (Grbl runs each segment at one
+ * speed: a jump every segment). With that choice v1^2 = v0^2 +-
+ * 2 a ds exactly, so the segment ends lie on the block's speed^2 lines: a
+ * segment that would cross the braking line v^2 = v_exit^2 + 2a(L - s) is
+ * shortened to end on it, and from there the segments decelerate along it,
+ * so the block is left at most at its planned exit speed, never above it. A block's last segment ends exactly at the block's end (its
+ * time follows from its length). Time is kept exactly in ticks Q16: the time
+ * from the last prepared event to the prepared position is carried to the
+ * next event, so no rounding accumulates.
  *
- *   normal:  v2(s) = min(v2_0 + 2a(s - s0),  v2_nom,  v2_exit + 2a(L - s))
- *   hold:    v2(s) = max(0, v2_0 - 2a(s - s0))
- *
- * Each piece is linear in s, i.e. constant acceleration, for which the time
- * over [sa, sb] is exactly 2 (sb - sa) / (va + vb). The time between two
- * events is summed over the pieces between them (breakpoints included), with
- * one integer square root per point. Units: v in µm/s Q2 (sqrt of the Q4
- * square), time in ticks Q16:
- *
- *   dt_q16 = ds_q8 * tick_hz * 2^11 / (va_q2 + vb_q2)
- *
- * ds_q8 of one chunk <= 64 events * (sqrt(3) mm / 1 step) < 2^25 at the
- * minimum 1 step/mm, tick_hz <= 2^25 (validated at init): product < 2^61.
+ * Arithmetic: speeds in µm/s Q4 (< 2^24), lengths in µm Q8, squares of
+ * speeds in (µm/s)^2 Q8 (64-bit), time in ticks Q16. Per segment the main
+ * loop needs a few 32x32->64 products and 64/32 divisions, and a square root
+ * only where a phase ends inside the segment (the nominal and exit speeds are
+ * cached per block): this is what lets an 8-bit chip keep the queue fed.
  */
 #include <string.h>
 #include "pk_stepgen.h"
@@ -27,106 +34,114 @@
 
 /* ------------------------------------------------------------------ prep */
 
-struct profile {
-    uint32_t s0, L;            /* µm Q8 */
-    pk_v2_q4_t v2_0, v2_nom, v2_exit;
-    uint32_t a;
-    bool hold;
-};
+/* Squares of speeds, (µm/s)^2 Q8. */
+static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
 
-/* 2a * ds in Q4 (ds in µm Q8) */
-static pk_v2_q4_t two_a(uint32_t a, uint64_t ds_q8) { return ((uint64_t)a * ds_q8) >> 3; }
-/* ds (µm Q8) over which speed^2 changes by dv2 (Q4) at accel a */
-static uint64_t ds_for(uint32_t a, pk_v2_q4_t dv2) { return (dv2 << 3) / a; }
-
-static pk_v2_q4_t prof_v2(const struct profile *p, uint32_t s)
+/* A segment's clock: the time (ticks Q16) to cover d (µm Q8) at the mean
+ * speed vsum / 2 (µm/s Q4) is d num / vsum, num = tick_hz 2^13 (< 2^37,
+ * tick_hz <= 2^24). One division per segment (none while cruising: the
+ * clock is kept while vsum stays) gives the factor as a 32-bit mantissa kq
+ * and a byte shift ks in {0, 8, 16, 24}, so every time in the segment is one
+ * 32x32 product and a byte shift: (d kq) >> ks. ks is the largest that
+ * keeps kq below 2^32, so kq has at least 24 significant bits wherever
+ * num / vsum >= 1 (speeds below 8 km/s). (d kq) >> ks is the time of d, and
+ * every d here is within one segment: the product stays below 2^56. */
+static void clock_set(struct pk_stepgen *sg, uint32_t vsum)
 {
-    uint64_t ds = s - p->s0;
-    if (p->hold) {
-        pk_v2_q4_t d = two_a(p->a, ds);
-        return d >= p->v2_0 ? 0 : p->v2_0 - d;
-    }
-    pk_v2_q4_t v;
-    if (p->v2_0 > p->v2_nom) {
-        /* above the nominal (an override lowered it): decelerate down to it */
-        pk_v2_q4_t d = two_a(p->a, ds);
-        v = d >= p->v2_0 - p->v2_nom ? p->v2_nom : p->v2_0 - d;
-    } else {
-        v = p->v2_0 + two_a(p->a, ds);
-        if (p->v2_nom < v)
-            v = p->v2_nom;
-    }
-    pk_v2_q4_t dec = p->v2_exit + two_a(p->a, (uint64_t)(p->L - s));
-    return dec < v ? dec : v;
+    if (vsum == sg->ck_vsum)
+        return;
+    sg->ck_vsum = vsum;
+    /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19) */
+    const uint64_t f = sg->tick_num >> 13; /* tick_hz */
+    uint8_t ks = vsum > (f << 5) ? 24u : (uint64_t)vsum << 3 > f ? 16u
+                 : (uint64_t)vsum << 11 > f ? 8u : 0u;
+    uint64_t q = (sg->tick_num << ks) / vsum;
+    if (q > UINT32_MAX)
+        q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
+    sg->ck_kq = (uint32_t)q;
+    sg->ck_ks = ks;
 }
 
-/* Breakpoints of the profile after s0 (ascending, < L); returns count (<= 2). */
-static unsigned prof_breaks(const struct profile *p, uint32_t bp[2])
+static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
 {
-    unsigned n = 0;
-    if (p->hold) {
-        uint64_t st = p->s0 + ds_for(p->a, p->v2_0);
-        if (st < p->L)
-            bp[n++] = (uint32_t)st;
-        return n;
+    uint64_t p = (uint64_t)d_q8 * sg->ck_kq;
+    switch (sg->ck_ks) {
+    case 24: return p >> 24;
+    case 16: return p >> 16;
+    case 8: return p >> 8;
+    default: return p;
     }
-    /* accel (or, above the nominal, decel) line meets the nominal, decel line leaves it */
-    uint64_t s1 = p->s0 + (p->v2_nom > p->v2_0   ? ds_for(p->a, p->v2_nom - p->v2_0)
-                           : p->v2_0 > p->v2_nom ? ds_for(p->a, p->v2_0 - p->v2_nom)
-                                                 : 0);
-    uint64_t dd = p->v2_nom > p->v2_exit ? ds_for(p->a, p->v2_nom - p->v2_exit) : 0;
-    uint64_t s2 = dd < (uint64_t)p->L - p->s0 ? p->L - dd : p->s0;
-    if (s1 <= s2) {
-        if (s1 > p->s0 && s1 < p->L)
-            bp[n++] = (uint32_t)s1;
-        if (s2 > s1 && s2 < p->L)
-            bp[n++] = (uint32_t)s2;
-    } else if (p->v2_0 > p->v2_nom) {
-        /* still above the nominal where the final deceleration starts: both
-         * lines have slope -2a, so the lower one rules throughout: no corner */
-    } else {
-        /* triangle: v2_0 + 2a(x - s0) = v2_exit + 2a(L - x) */
-        int64_t num = (int64_t)ds_for(p->a, p->v2_exit) - (int64_t)ds_for(p->a, p->v2_0)
-                      + (int64_t)p->L + (int64_t)p->s0;
-        int64_t x = num / 2;
-        if (x > (int64_t)p->s0 && x < (int64_t)p->L)
-            bp[n++] = (uint32_t)x;
-    }
-    return n;
 }
 
-static uint32_t v_q2(pk_v2_q4_t v2) { return pk_isqrt64(v2); }
-
-static int64_t piece_q16(uint32_t tick_hz, uint32_t sa, uint32_t sb, uint32_t va, uint32_t vb)
+/* When a segment of T whole ticks (invT_q30 = 2^30 / T) that covers its
+ * distance at the mean speed vseg reaches a point that the mean speed reaches
+ * at tau (ticks Q16). The segment really accelerates (or decelerates)
+ * uniformly from v0 to v1, which puts the point later (earlier) by
+ *     eps = a tau (T - tau) / (2 v(tau)),   a = (v1 - v0) / T,
+ * i.e. with r = |v1 - v0| / vseg and u = tau / T:
+ *     eps = r T u (1 - u) / 2 . vseg / v(tau),
+ * and vseg / v(tau) = 1 -+ r (2u - 1) / 2 to first order (the rest is
+ * second order in r, the speed's relative change over one segment: a few
+ * percent). Without it the events next to a segment boundary are off by up
+ * to r T / 8 against the interval ramp inside the segment: a jolt at every
+ * boundary.
+ * All in 32-bit products (an 8-bit chip's 64-bit multiply costs ~430
+ * cycles): t < T < 2^15 + 2^14, so t invT_q30 = 2^30 t / T < 2^30 and
+ * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
+ * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
+ * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
+static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
-    uint64_t vs = (uint64_t)va + vb;
-    if (vs == 0)
-        vs = 1;
-    return (int64_t)(((uint64_t)(sb - sa) * tick_hz * 2048u) / vs);
+    uint32_t t = (uint32_t)(tau >> 16);
+    if (T == 0 || t >= T || r_q15 == 0)
+        return tau;
+    if (r_q15 > 0xFFFFu)
+        r_q15 = 0xFFFFu;
+    uint32_t u_q16 = (t * invT_q30) >> 14;
+    uint32_t w_q16 = (uint32_t)(uint16_t)u_q16 * (uint16_t)(0x10000u - u_q16) >> 16;
+    uint32_t eps = (((r_q15 * w_q16) >> 14) * T) >> 2;
+    /* first-order term: eps r |2u - 1| / 2 = (eps / 2^12) (r m / 2^20),
+     * m_q16 = |2u - 1| */
+    uint32_t m_q16 = 2u * u_q16 > 0x10000u ? 2u * u_q16 - 0x10000u : 0x10000u - 2u * u_q16;
+    if (m_q16 > 0xFFFFu)
+        m_q16 = 0xFFFFu;
+    uint32_t k = ((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16) >> 20;   /* Q11 */
+    uint32_t fix = (eps >> 12) * k;
+    if ((2u * u_q16 > 0x10000u) == accel)
+        eps = eps > fix ? eps - fix : 0u;
+    else
+        eps += fix;
+    if (accel)
+        return tau + eps;
+    return tau > eps ? tau - eps : 0u;
 }
 
-/* Exact (to rounding) time from sa to sb, ticks Q16. */
-static int64_t prof_time(const struct profile *p, uint32_t tick_hz, uint32_t sa, uint32_t sb)
+/* 2^30 / T, T whole ticks (>= 1). */
+static uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
+
+/* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
+ * so that the division is 32-bit. */
+static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 {
-    uint32_t bp[2];
-    unsigned nb = prof_breaks(p, bp);
-    int64_t t = 0;
-    uint32_t s = sa, v = v_q2(prof_v2(p, sa));
-    for (unsigned i = 0; i < nb; i++) {
-        if (bp[i] <= sa || bp[i] >= sb)
-            continue;
-        uint32_t vb = v_q2(prof_v2(p, bp[i]));
-        t += piece_q16(tick_hz, s, bp[i], v, vb);
-        s = bp[i];
-        v = vb;
+    while (vsum >= 65536u) {
+        vsum >>= 1;
+        dv >>= 1;
     }
-    t += piece_q16(tick_hz, s, sb, v, v_q2(prof_v2(p, sb)));
-    return t;
+    return (dv << 16) / (vsum ? vsum : 1u);
 }
 
-static uint32_t ev_s(const struct pk_block *b, uint32_t k)
+/* The block's cached speeds (isqrt only when the plan changed them). */
+static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
 {
-    return (uint32_t)(((uint64_t)k * b->len_q8) / b->events);
+    if (b->v2_nom != sg->c_v2_nom) {
+        sg->c_v2_nom = b->v2_nom;
+        sg->vn_q4 = pk_isqrt64(b->v2_nom << 4);   /* Q4 speed^2 * 16 = (v Q4)^2 */
+    }
+    if (b->v2_exit != sg->c_v2_exit) {
+        sg->c_v2_exit = b->v2_exit;
+        sg->ve_q4 = pk_isqrt64(b->v2_exit << 4);
+        sg->ve_sq = sq64(sg->ve_q4);
+    }
 }
 
 void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,
@@ -137,11 +152,15 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     sg->tick_hz = tick_hz;
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
-    sg->chunk_ticks_max = tick_hz / 500u; /* 2 ms */
-    if (sg->chunk_ticks_max > PK_SG_CHUNK_TICKS_MAX)
-        sg->chunk_ticks_max = PK_SG_CHUNK_TICKS_MAX;
-    if (sg->chunk_ticks_max == 0)
-        sg->chunk_ticks_max = 1;
+    sg->seg_max = tick_hz / 500u; /* 2 ms */
+    if (sg->seg_max > PK_SG_CHUNK_TICKS_MAX)
+        sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
+    if (sg->seg_max < 16u)
+        sg->seg_max = 16u;
+    sg->tick_num = (uint64_t)tick_hz << 13;
+    /* per block with full-length segments: ds = vsum g, dv = accel kdv */
+    sg->g_max_q24 = (uint32_t)(((uint64_t)8u * sg->seg_max << 24) / tick_hz);
+    sg->kdv_q24 = (uint32_t)(((uint64_t)sg->seg_max * 16u << 24) / tick_hz);
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
@@ -176,6 +195,8 @@ static void ring_commit(struct pk_stepgen *sg)
 void pk_sg_set_hold(struct pk_stepgen *sg, bool hold)
 {
     sg->hold = hold;
+    if (hold)
+        sg->off_plan = true;
     if (!hold)
         sg->held = false;
 }
@@ -184,171 +205,309 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
                       uint32_t *rem_q8)
 {
     struct pk_block *b = pk_mq_at(q, 0);
-    *v2_now = sg->v2;
     *rem_q8 = 0;
-    if (b != NULL && b->type == PK_BLK_LINE)
-        *rem_q8 = b->len_q8 - (sg->prep_active ? sg->s_q8 : 0u);
+    if (b == NULL || b->type != PK_BLK_LINE) {
+        *v2_now = sg->v2;
+        return;
+    }
+    if (sg->prep_active && sg->off_plan) {
+        /* a hold stopped or slowed it inside the block: plan from where it is */
+        *v2_now = sg->v2;
+        *rem_q8 = b->len_q8 - sg->s_q8;
+        return;
+    }
+    /* Following the plan: report the block's start, not the position the
+     * main loop happens to have reached. The segments round their speeds and
+     * lengths, so the forward pass from a mid-block point would give exits a
+     * few LSB apart depending on when the replan ran, and the output would
+     * depend on the sender's timing. */
+    *v2_now = sg->prep_active ? sg->v2_blk : sg->v2;
+    *rem_q8 = b->len_q8;
 }
 
-/* Fit I, A, B to first interval e1, last en and total S over n events
- * (ticks Q16; every interval of a chunk of two or more events is below
- * PK_SG_CHUNK_TICKS_MAX ticks, so all three fit 32 bits). */
-struct fit3 { int64_t c0, c1, c2; };
-
-static void fit(struct fit3 *c, uint32_t n, int64_t e1, int64_t en, int64_t S)
+/* Publish n events: the first `first` ticks Q16 after the previous event,
+ * then the intervals c1 + A, c1 + 2A, ... (the ramp of one segment). Several
+ * slots when n exceeds PK_SG_MAX_EVENTS or the first interval exceeds the
+ * recurrence's range; each goes on where the last one stopped. */
+static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
+                        uint32_t v_um_s)
 {
-    int64_t N = n;
-    c->c0 = c->c1 = c->c2 = 0;
-    if (e1 < 1)
-        e1 = 1;
-    if (n == 1) {
-        c->c0 = S < 1 ? 1 : S;
-        return;
-    }
-    c->c0 = e1;
-    if (n == 2) {
-        c->c1 = S - 2 * e1;
-        return;
-    }
-    int64_t X = en - e1, Y = S - N * e1;
-    int64_t den = N * (N - 1) * (N - 2);
-    c->c2 = pk_div_round64(6 * N * X - 12 * Y, den);
-    c->c1 = pk_div_round64(X - c->c2 * (N - 1) * (N - 2) / 2, N - 1);
-    /* Re-verify: every interval of the recurrence must be positive (the
-     * chunk sizing keeps the speed change within ~6%, so the quadratic is
-     * nearly flat; this only guards against a pathological fit). Otherwise
-     * fall back to the linear fit (first interval and total). */
-    int64_t I = c->c0, A = c->c1;
-    for (uint32_t j = 0; j < n; j++) {
-        if (I < 1) {
-            c->c2 = 0;
-            c->c1 = (2 * (S - N * e1)) / (N * (N - 1));
-            return;
+    while (n > 0) {
+        struct pk_sg_chunk *c = ring_slot(sg);
+        if (c == NULL)
+            return false;  /* (the caller checked the room) */
+        c->v_um_s = v_um_s;
+        if (first >= ((uint64_t)1 << 30)) {
+            /* one event after a long interval: whole ticks + Q16 fraction */
+            c->kind = PK_SGC_SLOW;
+            uint64_t t = first >> 16;
+            c->u.ticks = (uint32_t)(t > UINT32_MAX ? UINT32_MAX : t);
+            c->n = (uint16_t)(first & 0xffffu);
+            ring_commit(sg);
+            n--;
+            c1 += A;
+            first = (uint64_t)(int64_t)c1;
+            continue;
         }
-        I += A;
-        A += c->c2;
+        uint32_t k = n > PK_SG_MAX_EVENTS ? PK_SG_MAX_EVENTS : n;
+        c->kind = PK_SGC_STEPS;
+        c->n = (uint16_t)k;
+        c->u.st.c0 = (int32_t)first;
+        c->u.st.c1 = c1;
+        c->u.st.c2 = A;
+        ring_commit(sg);
+        n -= k;
+        c1 += (int32_t)k * A;
+        first = (uint64_t)(int64_t)c1;
     }
+    return true;
 }
 
-static int64_t fit_sum(const struct fit3 *c, uint32_t n)
+/* Cut the next segment of the tail LINE block b. Returns false if none
+ * (held, or the ring has no room for it). */
+static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
 {
-    int64_t N = n;
-    return N * c->c0 + c->c1 * (N * (N - 1) / 2) + c->c2 * (N * (N - 1) * (N - 2) / 6);
-}
-
-/* Cut the next chunk of the tail LINE block b. Returns false if none (held). */
-static bool prep_line(struct pk_stepgen *sg, struct pk_block *b, struct pk_sg_chunk *c)
-{
-    if (sg->e == 0 && !sg->blk_sent) {
+    if (!sg->blk_sent) {
         /* the block's own slot first: directions, spindle, Bresenham */
+        struct pk_sg_chunk *c = ring_slot(sg);
+        if (c == NULL)
+            return false;
         c->kind = PK_SGC_BLOCK;
         c->arg = b->dir_mask;
         c->spindle = b->spindle;
         memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
         memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
         c->u.blk.period = b->period;
+        ring_commit(sg);
         sg->blk_sent = true;
-        return true;
+        sg->v2_blk = sg->v2;
+        sg->off_plan = sg->hold;
+        /* event k lies at floor(k L / M): stepped incrementally below */
+        sg->ev_q = b->len_q8 / b->events;
+        sg->ev_r = b->len_q8 % b->events;
+        sg->ev_next = sg->ev_q;
+        sg->ev_rem = sg->ev_r;
+        /* The segment: 2 ms, or shorter so that at twice the nominal speed
+         * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
+         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
+         * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
+         * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
+         * products stay below 2^50). */
+        blk_speeds(sg, b);
+        uint32_t seg = sg->seg_max;
+        uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
+        uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
+        if (room < need) {
+            uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
+            seg = lim < 16u ? 16u : (uint32_t)lim;
+            /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
+             * segment a (µm/s^2) seg / tick_hz, Q4 */
+            sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
+            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+        } else {
+            sg->g_q24 = sg->g_max_q24;
+            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
+        }
+        if (sg->dv_q4 == 0)
+            sg->dv_q4 = 1;
+        sg->seg_ticks = seg;
+        sg->invT_q30 = inv_q30(seg);
+        /* longer segments (x2, x4) where the event limit and the recurrence's
+         * range allow: see seg_level */
+        uint8_t lv = 0;
+        while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
+               && room >= need << (lv + 1u))
+            lv++;
+        sg->lvl_max = lv;
     }
-    struct profile p;
-    p.s0 = sg->s_q8;
-    p.L = b->len_q8;
-    p.v2_0 = sg->v2;
-    p.v2_nom = b->v2_nom;
-    p.v2_exit = b->v2_exit;
-    p.a = b->accel;
-    p.hold = sg->hold;
-    const uint32_t N = b->events, e = sg->e;
-
-    uint32_t n_max = N - e;
-    if (n_max > PK_SG_MAX_EVENTS)
-        n_max = PK_SG_MAX_EVENTS;
-    if (p.hold) {
-        uint64_t st = p.s0 + ds_for(p.a, p.v2_0);
-        if (st < p.L) {
-            /* last event at or before the stop point */
-            uint64_t kst = (st * N) / p.L;
-            while (kst > e && ev_s(b, (uint32_t)kst) > st)
-                kst--;
-            if (kst <= e) {
-                sg->v2 = 0;
-                sg->held = true;
-                return false;
-            }
-            if (kst - e < n_max)
-                n_max = (uint32_t)(kst - e);
+    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
+     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
+     * at the highest override */
+    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+        return false;
+    blk_speeds(sg, b);
+    const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4;
+    const uint32_t two_a = 2u * (uint32_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8, < 2^31 */
+    const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
+    const uint64_t v02 = sg->v_sq, ve2 = sg->hold ? 0u : sg->ve_sq;
+    /* the speed^2 the end of the block allows here: the line
+     * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
+    const uint64_t line0 = ve2 + (uint64_t)two_a * (L - s0);
+    /* the segment's length: the base one, doubled while the speed changes
+     * by at most 1/2^PK_SG_RAMP_SHIFT of itself over it (the interval ramp
+     * is a first-order model of the acceleration: its error grows as the
+     * square of that change), and always at the longest while cruising */
+    const bool cruise = !sg->hold && v0 == sg->vn_q4 && v02 < line0;
+    uint8_t lv = sg->lvl_max;
+    if (!cruise)
+        while (lv > 0 && v0 < (sg->dv_q4 << (lv + PK_SG_RAMP_SHIFT)))
+            lv--;
+    const uint32_t dv = sg->dv_q4 << lv, g_q24 = sg->g_q24 << lv;
+    uint32_t v1, ds;
+    uint64_t v12 = 0;      /* v1^2 once known (0: not yet) */
+    bool full = true;   /* a whole segment of seg_ticks (else a phase ends inside) */
+    if (sg->hold || (v02 >= line0 && v0 > ve) || v0 > sg->vn_q4) {
+        /* decelerate: towards the exit (on the line), the nominal (an
+         * override lowered it) or rest (a hold). A whole segment, or the
+         * part of one that reaches the target speed: from v0 to vt at a,
+         * (v0^2 - vt^2) / 2a, in (v0 - vt) / a. */
+        uint32_t vt = sg->hold ? 0u : (v0 > sg->vn_q4 && !(v02 >= line0) ? sg->vn_q4 : ve);
+        if (sg->hold && v0 == 0) {
+            sg->held = true;
+            return false;
+        }
+        if (v0 > vt + dv) {
+            v1 = v0 - dv;
+            /* (rounded to nearest, here and below: rounding down would
+             * bias every segment's acceleration up, rounding up would let a
+             * long deceleration drift above its braking line) */
+            ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+        } else {
+            v1 = vt;
+            uint64_t d = (v02 - sq64(vt)) / (two_a ? two_a : 1u);
+            ds = d > L - s0 ? L - s0 : (uint32_t)d;
+            full = false;
+        }
+    } else {
+        /* below the line: accelerate towards the nominal, or cruise; a
+         * segment that would end above the line ends on it instead */
+        v1 = v0 + dv < sg->vn_q4 ? v0 + dv : sg->vn_q4;
+        if (v1 == 0)
+            v1 = dv; /* at rest with a zero nominal: cannot happen, but move */
+        ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+        if (ds == 0)
+            ds = 1;
+        uint32_t se = s0 + ds < L ? s0 + ds : L;
+        v12 = sq64(v1);
+        if (v12 + (uint64_t)two_a * (se - s0) > line0) {
+            /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
+             * line: accelerate (or cruise) until there */
+            uint64_t d;
+            if (v1 > v0)
+                d = (line0 - v02) / (2u * (uint64_t)two_a);     /* the two lines meet */
+            else
+                d = (line0 - v02) / (two_a ? two_a : 1u);       /* cruise meets the line */
+            if (d > L - s0)
+                d = L - s0;
+            ds = (uint32_t)d;
+            if (ds == 0)
+                ds = 1;
+            v1 = v1 > v0 ? pk_isqrt64(v02 + (uint64_t)two_a * ds) : v0;
+            if (v1 > sg->vn_q4)
+                v1 = sg->vn_q4;
+            v12 = 0;
+            full = false;
         }
     }
-    /* stay inside one phase: up to the first breakpoint after s0 */
-    uint32_t bp[2];
-    unsigned nb = prof_breaks(&p, bp);
-    uint32_t n = n_max;
-    for (unsigned i = 0; i < nb; i++) {
-        if (bp[i] <= p.s0)
-            continue;
-        uint64_t kb = ((uint64_t)bp[i] * N) / p.L;
-        uint32_t nk = kb > e ? (uint32_t)(kb - e) : 1u;
-        if (nk < n)
-            n = nk;
-        break;
+    if (s0 + ds >= L) {
+        /* the block ends inside this segment: end exactly there, at the speed
+         * the constant acceleration reaches there */
+        ds = L - s0;
+        uint64_t e2 = v02;
+        const uint64_t ad = (uint64_t)two_a * ds;
+        if (v1 > v0)
+            e2 += ad;
+        else if (v1 < v0)
+            e2 = e2 > ad ? e2 - ad : 0;
+        uint32_t vl = pk_isqrt64(e2);
+        if (v1 > v0 && vl > v1)
+            vl = v1;
+        if (v1 < v0 && vl < v1)
+            vl = v1;
+        v1 = vl;
+        v12 = 0;
+        full = false;
     }
-    /* speed may change by at most ~6% (v^2 by 1/8) within a chunk */
-    pk_v2_q4_t v2_here = prof_v2(&p, p.s0);
-    pk_v2_q4_t v2_next = prof_v2(&p, ev_s(b, e + 1));
-    if (v2_next != v2_here) {
-        uint64_t ds = ds_for(p.a, v2_here / 8u);
-        uint64_t nk = (ds * N) / p.L;
-        if (nk < 1)
-            nk = 1;
-        if (nk < n)
-            n = (uint32_t)nk;
+    /* The segment's duration from its length (not the nominal seg_ticks: ds
+     * is rounded down, and the time must be the time of the distance, or
+     * the carry would put the rounding into the interval across the next
+     * boundary). */
+    const uint32_t vsum = (v0 + v1) ? v0 + v1 : 1u;
+    clock_set(sg, vsum);
+    const uint64_t seg_q16 = clock_time(sg, ds);
+    const uint32_t s1 = s0 + ds;
+    /* the events in (s0, s1], stepped from the last one prepared (exact:
+     * event k at q k + floor(r k / M) with L = q M + r; event M is at L, and
+     * the one after it beyond any s1 <= L, since q >= 1: a step is longer
+     * than 1/256 µm) */
+    uint32_t pos = sg->ev_next, prem = sg->ev_rem, n = 0;
+    const uint32_t M = b->events, p_first = pos, q_ev = sg->ev_q, r_ev = sg->ev_r;
+    uint32_t p_last = pos;
+    while (pos <= s1) {
+        p_last = pos;
+        n++;
+        pos += q_ev;
+        prem += r_ev;
+        if (prem >= M) {
+            prem -= M;
+            pos++;
+        }
     }
-    /* and last at most chunk_ticks_max (approximately) */
-    uint32_t vq = v_q2(v2_next > v2_here ? v2_next : v2_here);
-    {
-        /* events in T ticks at speed v: T * v / (tick_hz * d); d = L/N */
-        uint64_t num = (uint64_t)sg->chunk_ticks_max * vq * N;       /* < 2^16*2^22*2^25 */
-        uint64_t den = (uint64_t)sg->tick_hz * 4u * ((uint64_t)p.L >> 8 ? (uint64_t)p.L >> 8 : 1u);
-        uint64_t nk = num / den;
-        if (nk < 1)
-            nk = 1;
-        if (nk < n)
-            n = (uint32_t)nk;
+    const uint32_t e = sg->e + n;
+    uint32_t vrep = (uint32_t)(((uint64_t)v1 + 8u) >> 4);
+    uint64_t carry = sg->carry_q16 + seg_q16;
+    if (n > 0) {
+        /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
+         * halves around the mean) */
+        const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
+        const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
+        const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
+        uint64_t t_first = at_time(clock_time(sg, p_first - s0), T, invT, r_q15, v1 > v0);
+        uint64_t t_last = at_time(clock_time(sg, p_last - s0), T, invT, r_q15, v1 > v0);
+        if (t_last > seg_q16)
+            t_last = seg_q16;
+        if (t_first > t_last)
+            t_first = t_last;
+        /* The n - 1 intervals after the first: their mean is span / (n - 1);
+         * they ramp with the speed, the interval being inversely
+         * proportional to it: from the mean, the change across the segment
+         * is about mean (v0 - v1) / vseg (at most the mean either way, so
+         * that every interval stays positive); the segment holds T / mean
+         * intervals (a fraction: not n, which counts whole events), so
+         * A = change mean / T per event. c1 is rounded so that the ramp
+         * never sums to more than the span; what is left goes to the carry,
+         * so time stays exact. (span < 2^31: one segment, Q16.) */
+        int32_t c1 = 0, A = 0;
+        uint32_t rem = 0;
+        if (n > 1) {
+            uint32_t span = (uint32_t)(t_last - t_first);
+            uint32_t mean = span / (n - 1u);
+            if (n > 2 && v0 != v1) {
+                /* ch = mean r (Q16), per = mean / T (Q16), a = ch per: in
+                 * 16x16 products (mean < 2^31, r_q15 <= 2^16 - 1, per <= 2^16) */
+                const uint32_t r16 = r_q15 > 0xFFFFu ? 0xFFFFu : r_q15;
+                uint32_t ch = ((mean >> 16) * r16 << 1)
+                              + ((uint32_t)(uint16_t)mean * (uint16_t)r16 >> 15);
+                if (ch > mean)
+                    ch = mean;
+                uint32_t per = ((mean >> 16) * invT) >> 14;
+                if (per > 0x10000u)
+                    per = 0x10000u;
+                int32_t a = (int32_t)((ch >> 16) * per + (((ch & 0xFFFFu) * per) >> 16));
+                A = v1 > v0 ? -a : a;
+            }
+            /* c1 = mean - ceil(A n / 2); the ramp's sum is within n of span
+             * (< 2^31), so it is computed modulo 2^32 */
+            int32_t an = A * (int32_t)n;
+            int32_t q = an >= 0 ? (an + 1) / 2 : -((-an) / 2);
+            c1 = (int32_t)mean - q;
+            uint32_t sum = (n - 1u) * (uint32_t)c1 + (uint32_t)A * ((n * (n - 1u)) / 2u);
+            rem = span - sum;
+        }
+        if (!emit_events(sg, n, sg->carry_q16 + t_first, c1, A, vrep))
+            return false;
+        carry = seg_q16 - t_last + rem;
     }
-    if (n < 1)
-        n = 1;
-
-    uint32_t sa = p.s0, s1 = ev_s(b, e + 1), sl = ev_s(b, e + n - 1), sb = ev_s(b, e + n);
-    int64_t e1 = prof_time(&p, sg->tick_hz, sa, s1);
-    if (n > 1 && e1 >= ((int64_t)PK_SG_CHUNK_TICKS_MAX << 16)) {
-        /* the estimate said several events, the exact time says one is long
-         * already: cut at one (the slow path below) */
-        n = 1;
-        sl = sa;
-        sb = s1;
-    }
-    int64_t en = n > 1 ? prof_time(&p, sg->tick_hz, sl, sb) : e1;
-    int64_t S = n > 1 ? prof_time(&p, sg->tick_hz, sa, sb) : e1;
-    struct fit3 f;
-    fit(&f, n, e1 - sg->lag_q16, en, S - sg->lag_q16);
-    if (n == 1 && f.c0 >= ((int64_t)1 << 30)) {
-        /* one event after a long interval: whole ticks + a Q16 fraction */
-        c->kind = PK_SGC_SLOW;
-        c->u.ticks = (uint32_t)(f.c0 >> 16 > UINT32_MAX ? UINT32_MAX : f.c0 >> 16);
-        c->n = (uint16_t)(f.c0 & 0xffff);
-        sg->lag_q16 += (((int64_t)c->u.ticks << 16) | c->n) - S;
-    } else {
-        c->kind = PK_SGC_STEPS;
-        c->n = (uint16_t)n;
-        c->u.st.c0 = (int32_t)f.c0;
-        c->u.st.c1 = (int32_t)f.c1;
-        c->u.st.c2 = (int32_t)f.c2;
-        sg->lag_q16 += fit_sum(&f, n) - S;
-    }
-    sg->v2 = prof_v2(&p, sb);
-    c->v_um_s = v_q2(sg->v2) / 4u;
-    sg->e = e + n;
-    sg->s_q8 = sb;
+    sg->carry_q16 = carry;
+    sg->ev_next = pos;
+    sg->ev_rem = prem;
+    sg->v_q4 = v1;
+    sg->v_sq = v12 ? v12 : sq64(v1);
+    sg->v2 = sg->v_sq >> 4;   /* Q4 speed^2 for the planner */
+    sg->e = e;
+    sg->s_q8 = s1;
+    if (sg->hold && v1 == 0)
+        sg->held = true;
     return true;
 }
 
@@ -366,10 +525,10 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
                 sg->held = true; /* nothing left: the queue already ends at rest */
             return added;
         }
-        struct pk_sg_chunk *c = ring_slot(sg);
-        if (c == NULL)
-            return added;
         if (b->type != PK_BLK_LINE) {
+            struct pk_sg_chunk *c = ring_slot(sg);
+            if (c == NULL)
+                return added;
             if (sg->hold) {
                 sg->held = true; /* a stop block: we are at rest here */
                 return added;
@@ -385,14 +544,15 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
             pk_mq_pop(q);
             max_blocks--;
             sg->v2 = 0;
-            sg->lag_q16 = 0;
+            sg->v_sq = 0;
+            sg->v_q4 = 0;
+            sg->carry_q16 = 0;
             added = true;
             continue;
         }
         sg->prep_active = true;
-        if (!prep_line(sg, b, c))
+        if (!prep_line(sg, b))
             return added;
-        ring_commit(sg);
         added = true;
         if (sg->e >= b->events) {
             pk_mq_pop(q);
@@ -425,7 +585,9 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
         sg->e = 0;
         sg->s_q8 = 0;
         sg->v2 = 0;
-        sg->lag_q16 = 0;
+        sg->v_sq = 0;
+        sg->v_q4 = 0;
+        sg->carry_q16 = 0;
         return 1;
     }
     if (hal->ops->timer_stop)
@@ -445,7 +607,9 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->e = 0;
     sg->s_q8 = 0;
     sg->v2 = 0;
-    sg->lag_q16 = 0;
+    sg->v_sq = 0;
+    sg->v_q4 = 0;
+    sg->carry_q16 = 0;
     sg->phase = PK_SGP_GAP;
     sg->left = 0;
     sg->mask_due = 0;
@@ -460,6 +624,86 @@ void pk_sg_flush(struct pk_stepgen *sg)
 static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
 {
     sg->alarm = why;
+    sg->v_um_s = 0u;
+    sg->busy = false;
+    return 0;
+}
+
+/* ------------------------------------------------------------ inputs */
+
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t lv, int level)
+{
+    uint32_t old = sg->in_now;
+    sg->in_now = (uint16_t)lv;
+    sg->in_rise = (uint16_t)(sg->in_rise | (lv & ~old));
+    uint8_t w = sg->watch;
+    if (w == 0u)
+        return;
+    if ((w & PK_SGW_LIMITS) != 0u && ((level ? lv : lv & ~old) & PK_IN_LIMITS) != 0u)
+        sg->fired |= PK_SGW_LIMITS;
+    if ((w & PK_SGW_PROBE) != 0u && (sg->fired & PK_SGW_PROBE) == 0u
+        && ((lv >> PK_IN_PROBE) & 1u) == sg->probe_level) {
+        for (unsigned i = 0; i < PK_AXES; i++)
+            sg->probe_pos[i] = sg->pos[i];
+        sg->fired |= PK_SGW_PROBE;
+    }
+    if ((w & PK_SGW_HOME) != 0u) {
+        sg->lock |= (uint8_t)(lv & sg->home_axes);
+        if ((sg->lock & sg->home_axes) == sg->home_axes)
+            sg->fired |= PK_SGW_HOME;
+    }
+}
+
+/* A watch is armed and the inputs must be read (a board without edge
+ * reports, or a line block's start: a switch already active when a move
+ * starts): read them into the watches. 0, or -1 if the read failed (alarm
+ * latched). */
+static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    uint32_t lv;
+    if (pk_hal_input_read(hal, &lv) != 0) {
+        sg->alarm = PK_ALARM_INPUT_READ;
+        return -1;
+    }
+    pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    return 0;
+}
+
+/* The watches that stop the output at once have fired. */
+#define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
+
+/* The watch paths stay out of line: with none armed the step path pays only
+ * its byte test, not the registers their code would take; armed with nothing
+ * to do (hard limits on a board with edge reports, no switch closed), a few
+ * more byte tests and no call. */
+#if defined(__GNUC__) || defined(__clang__)
+#define SG_COLD __attribute__((noinline, cold))
+#else
+#define SG_COLD
+#endif
+
+/* A step event with a watch armed: the axes still to step (homing's locked
+ * ones dropped), or -1: stop before this event. */
+static SG_COLD int32_t watch_event(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t mask)
+{
+    if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
+        return -1;
+    return (int32_t)(mask & ~(uint32_t)sg->lock);
+}
+
+/* A chunk about to run with a watch armed (kind: its enum pk_sg_chunk_kind):
+ * 1 = stop before it. */
+static SG_COLD int watch_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t kind)
+{
+    return ((sg->poll_in || kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0) || WATCH_STOP(sg);
+}
+
+/* Stop at once for a watch: nothing more is emitted; a hard limit latches
+ * its alarm, a completed homing move only stops (MAIN drops the rest). */
+static SG_COLD uint64_t isr_watch_stop(struct pk_stepgen *sg)
+{
+    if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
+        sg->alarm = PK_ALARM_HARD_LIMIT;
     sg->v_um_s = 0u;
     sg->busy = false;
     return 0;
@@ -483,6 +727,13 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
+        }
+        /* armed, and something to do: inputs to read, a watch fired, an axis locked */
+        if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
+            int32_t w = watch_event(sg, hal, mask);
+            if (w < 0)
+                return isr_watch_stop(sg);
+            mask = (uint32_t)w;
         }
         if (pk_hal_step_write(hal, all, mask) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
@@ -516,6 +767,8 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind))
+            return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:
             if (c->spindle != sg->spindle_cur) {
@@ -537,10 +790,13 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             }
             break;
         case PK_SGC_STEPS:
+            /* first interval c0, then c1 changing by c2 per event: the
+             * difference c0 - c1 is added once here, so that every event
+             * below is the same two adds */
             sg->left = c->n;
-            sg->I = c->u.st.c0;
-            sg->A = c->u.st.c1;
-            sg->B = c->u.st.c2;
+            sg->next_q16 += (uint64_t)((int64_t)c->u.st.c0 - c->u.st.c1);
+            sg->I = c->u.st.c1;
+            sg->A = c->u.st.c2;
             sg->v_um_s = c->v_um_s;
             break;
         case PK_SGC_SLOW:
@@ -550,7 +806,6 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             sg->next_q16 += ((uint64_t)c->u.ticks << 16) | c->n;
             sg->I = 0;
             sg->A = 0;
-            sg->B = 0;
             sg->v_um_s = c->v_um_s;
             break;
         default: {
@@ -573,10 +828,18 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
     }
+    uint32_t ival = (uint32_t)sg->I;
     sg->next_q16 += (uint64_t)(int64_t)sg->I;
     sg->I += sg->A;
-    sg->A += sg->B;
     sg->left--;
+    /* Late by more than the interval itself (the timer callback was held
+     * up, or the main loop published the chunk after its time): the
+     * schedule moves to now instead of catching up, which would fire the
+     * missed steps back to back at whatever rate the callback manages. */
+    if (sg->next_q16 + ival < (now << 16)) {
+        sg->next_q16 = now << 16;
+        sg->late++;
+    }
     uint64_t at = (sg->next_q16 + 0x8000u) >> 16;
     if (at < earliest)
         at = earliest;

@@ -232,7 +232,9 @@ static bool kink_slower(const struct pk_stroke *st, const int64_t u1[PK_AXES],
     uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10);         /* µm Q8 */
     /* v^2 (Q4) = a * r: a (µm/s^2) * r_q8 / 256 * 16 */
     pk_v2_q4_t blend = ((uint64_t)st->dyn.a_side * r_q8) >> 4;
-    return kink < blend;
+    /* the blend must win clearly: its decimated chords are less regular
+     * than the estimate assumes (and a tie keeps the exact corner) */
+    return kink + kink / 4u < blend;
 }
 
 /** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
@@ -286,11 +288,15 @@ static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
 
 /* ------------------------------------------------------------ kernel feed */
 
-static void queue_pt(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+static void queue_pt_f(struct pk_stroke *st, const pk_um_t p[PK_AXES], bool corner)
 {
-    memcpy(st->q[(st->q_head + st->nq) % 4u], p, sizeof st->q[0]);
+    unsigned i = (st->q_head + st->nq) % 4u;
+    memcpy(st->q[i], p, sizeof st->q[0]);
+    st->q_corner = (uint8_t)(corner ? st->q_corner | (1u << i) : st->q_corner & ~(1u << i));
     st->nq++;
 }
+
+static void queue_pt(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { queue_pt_f(st, p, false); }
 
 /* p = a + d * num / den (rounded to nearest), per axis. */
 static void along(const pk_um_t a[PK_AXES], const int64_t d[PK_AXES], uint64_t num, uint64_t den,
@@ -327,12 +333,13 @@ static void queue_leg(struct pk_stroke *st)
         queue_pt(st, x);
 }
 
-/* Queue the vertex v[1] (twice where it must stay sharp). */
+/* Queue the vertex v[1] (twice where it must stay sharp; the second copy is
+ * flagged, so that the decimator can be told when the kernel reaches it). */
 static void queue_vertex(struct pk_stroke *st, bool twice)
 {
     queue_pt(st, st->v[1]);
     if (twice)
-        queue_pt(st, st->v[1]);
+        queue_pt_f(st, st->v[1], true);
 }
 
 /* With v[0..2] held: decide v[1]'s cap, queue leg 0 and v[1], shift. */
@@ -342,15 +349,6 @@ static void advance(struct pk_stroke *st)
     st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
     queue_leg(st);
     queue_vertex(st, st->cap[1] == 0);
-    if (st->cap[1] == 0) {
-        /* a corner kept sharp: the refined path passes through it exactly;
-         * the decimator ends a chord there and flags it (pk_stroke_pull) */
-        if (st->ncorner == 3u) {
-            memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
-            st->ncorner = 2;  /* (the oldest is dropped: treated as smooth, slower) */
-        }
-        memcpy(st->corner[st->ncorner++], st->v[1], sizeof st->corner[0]);
-    }
     memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
     memmove(&st->err_in[0], &st->err_in[1], 2 * sizeof st->err_in[0]);
     st->cap[0] = st->cap[1];
@@ -664,6 +662,19 @@ static int feed_kernel(struct pk_stroke *st)
             const pk_um_t *p = st->q[st->q_head];
             int r = pk_refine_push(&st->k, p);
             if (r == PK_OK) {
+                if (st->q_corner & (1u << st->q_head)) {
+                    /* a corner kept sharp is in the kernel: the refined path
+                     * passes through it exactly, a few points later; the
+                     * decimator ends a chord there and flags it. The kernel
+                     * holds at most a few control points, so three pending
+                     * corners suffice (an overflow only makes the oldest a
+                     * smooth vertex: slower, never out of the limits) */
+                    if (st->ncorner == 3u) {
+                        memmove(st->corner[0], st->corner[1], 2 * sizeof st->corner[0]);
+                        st->ncorner = 2;
+                    }
+                    memcpy(st->corner[st->ncorner++], p, sizeof st->corner[0]);
+                }
                 observe(st, PK_STROKE_EV_CTRL, p);
                 st->q_head = (uint8_t)((st->q_head + 1u) % 4u);
                 st->nq--;

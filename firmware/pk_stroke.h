@@ -96,6 +96,7 @@ struct pk_stroke {
     uint32_t cap[3];           /**< blend half-length capacity at v[i], µm (see pk_stroke.c) */
     uint8_t nq, q_head;        /**< control points queued for the kernel */
     pk_um_t q[4][PK_AXES];
+    uint8_t q_corner;          /**< bit i: q[i] is the second copy of a corner kept sharp */
     uint8_t ncorner;           /**< vertices kept sharp, not yet out of the kernel */
     pk_um_t corner[3][PK_AXES];
 

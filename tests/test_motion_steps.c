@@ -232,9 +232,12 @@ static void test_axis_speeds_never_exceed_their_max_rate_or_the_feed(void)
  * under constant acceleration the mean speed over an interval equals the
  * speed at its mid-time, so a = (f/I2 - f/I1) / ((I1 + I2) / 2f) is exact for
  * continuous motion. Tolerance: each edge sits on a whole tick, so I1 - I2 is
- * known to +-2 ticks, plus up to 0.5 tick from the step generator's quadratic
- * fit within a chunk: 5 f^2 / (I1 I2 (I1 + I2)); plus 3% of a for the fit's
- * relative error. Returns worst |a|/allowed.
+ * known to +-2 ticks, plus up to 0.5 tick from the step generator's interval
+ * ramp within a segment: 5 f^2 / (I1 I2 (I1 + I2)); plus 3% of a for the
+ * ramp's first-order model of the constant acceleration (its error grows as
+ * the square of the speed's relative change over a 2 ms segment). Returns
+ * worst |a|/allowed. Holds across segment boundaries too: a boundary is not
+ * a jolt.
  */
 static double worst_accel_ratio(const struct pk_rec *r, unsigned axis, double a_steps,
                                 size_t from, size_t to)

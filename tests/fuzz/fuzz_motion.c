@@ -436,7 +436,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 CFG.axes, CFG.steps_per_mm_q16[0] / 65536.0, CFG.steps_per_mm_q16[1] / 65536.0,
                 CFG.steps_per_mm_q16[2] / 65536.0, CFG.smooth.mode, CFG.smooth.scheme, CFG.smooth.degree,
                 CFG.smooth.depth, (int)CFG.smooth.tolerance_um);
-    struct pk_hal hal = { &H_OPS, NULL, TICK_HZ, 0, 0, 0, 0 };
+    struct pk_hal hal = { .ops = &H_OPS, .ctx = NULL, .tick_hz = TICK_HZ };
     int rc = pk_machine_init(&MACH, &CFG, &hal);
     if (rc != PK_MOTION_OK) {
         if (VERBOSE)
