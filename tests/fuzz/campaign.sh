@@ -35,7 +35,7 @@ for spec in "${specs[@]}"; do
   [[ $spec == *:* ]] && s=${spec#*:}
   [[ -x build/fuzz/$t ]] || { echo "no such target: $t" >&2; exit 2; }
   bash tests/fuzz/run_fuzz.sh build/fuzz "$s" "$t" > build/fuzz/campaign-$t.txt || fail=1
-  rows+=("$(tail -n1 build/fuzz/campaign-$t.txt)")
+  rows+=("$(sed -n 3p build/fuzz/campaign-$t.txt)")   # the row (after the 2 header lines)
   # findings' details (if any) follow the table row
   sed -n '4,$p' build/fuzz/campaign-$t.txt
 done
