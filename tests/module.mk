@@ -99,6 +99,9 @@ FINDING_TESTS := $(patsubst tests/fuzz/findings/%.c,$(BUILD)/fuzz-strict/%,$(wil
 fuzz-findings: $(addprefix $(BUILD)/fuzz-strict/,$(notdir $(FINDING_DIRS))) $(FINDING_TESTS)
 	@for d in $(FINDING_DIRS); do t=$$(basename $$d); for f in $$d/*; do \
 	  if $(BUILD)/fuzz-strict/$$t $$f >/dev/null 2>$(BUILD)/fuzz-strict/last.err; then \
-	    echo "FIXED       $$f"; else echo "REPRODUCED  $$f: $$(grep -m1 'invariant broken' $(BUILD)/fuzz-strict/last.err)"; fi; \
+	    echo "FIXED       $$f"; else echo "REPRODUCED  $$f: $$(grep -m1 -E 'invariant broken|runtime error|ERROR: AddressSanitizer' $(BUILD)/fuzz-strict/last.err)"; fi; \
 	done; done
-	@for t in $(FINDING_TESTS); do $$t | grep -E '^(ok|not ok)' | sed 's/^ok /FIXED       /; s/^not ok /REPRODUCED  /'; done
+	@for t in $(FINDING_TESTS); do $$t > $(BUILD)/fuzz-strict/last.out 2> $(BUILD)/fuzz-strict/last.err; rc=$$?; \
+	  grep -E '^(ok|not ok)' $(BUILD)/fuzz-strict/last.out | sed 's/^ok /FIXED       /; s/^not ok /REPRODUCED  /'; \
+	  if [ $$rc -ne 0 ] && ! grep -q '^not ok' $(BUILD)/fuzz-strict/last.out; then \
+	    echo "REPRODUCED  $$(basename $$t) stopped (exit $$rc): $$(grep -m1 -E 'runtime error|ERROR: AddressSanitizer' $(BUILD)/fuzz-strict/last.err)"; fi; done
