@@ -140,6 +140,16 @@ struct pk_hal_ops {
      *  that made a member return PK_HAL_EIO), "" if none. Valid until the
      *  next call on the instance. For alarms and `[MSG:...]` reports. */
     const char *(*error_text)(void *ctx);
+
+    /** [MAIN] Optional non-volatile store (EEPROM on a board, a file on a
+     *  host) for settings and offsets that must survive a restart.
+     *  nvm_size: bytes available. nvm_read/nvm_write: len bytes at offset
+     *  (offset + len <= nvm_size), blocking until done; PK_HAL_OK, or
+     *  PK_HAL_EINVAL (out of range) / PK_HAL_EIO. Written only while the
+     *  machine is idle (the Grbl engine syncs first, as Grbl does). */
+    uint32_t (*nvm_size)(void *ctx);
+    int (*nvm_read)(void *ctx, uint32_t offset, uint8_t *buf, size_t len);
+    int (*nvm_write)(void *ctx, uint32_t offset, const uint8_t *buf, size_t len);
 };
 
 /** One HAL instance: ops + context + the board's static facts. */
@@ -258,6 +268,11 @@ static inline int pk_hal_input_watch(const struct pk_hal *h, pk_hal_input_cb cb,
 static inline uint32_t pk_hal_irq_save(const struct pk_hal *h)
 {
     return h->ops->irq_save ? h->ops->irq_save(h->ctx) : 0u;
+}
+/** Bytes of non-volatile store the backend has (0: none). */
+static inline uint32_t pk_hal_nvm_size(const struct pk_hal *h)
+{
+    return h->ops->nvm_size && h->ops->nvm_read && h->ops->nvm_write ? h->ops->nvm_size(h->ctx) : 0u;
 }
 /** The backend's last failure as text; "" if none or not provided. */
 static inline const char *pk_hal_error_text(const struct pk_hal *h)
