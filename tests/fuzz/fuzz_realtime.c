@@ -39,16 +39,10 @@
  *     answered with an error none; moves reach the machine in the order of
  *     their lines, each once.
  *
- * Allowances for findings in the engine as it is on main (FZ_STRICT bits,
- * make fuzz-findings builds with all set; tests/fuzz/README.md):
- *   1 = R1: the engine queues '?' '!' '~' 0x85 in a 16-entry ring and drops
- *       what does not fit, so a '!' behind 16 '?' in one burst is lost. The
- *       default build checks '!' / '~' / '?' only in batches of at most 16
- *       such bytes.
- *   2 = R2: bytes >= 0x80 outside Grbl's list (0x84 0x85 0x87 0x90-0x9D
- *       0xA0 0xA1) are not claimed by the filter; they go into the line,
- *       which fails with error:1. The default build sends only bytes the
- *       filter claims.
+ * No allowances: the findings R1 (a '!' behind 16 '?' lost) and R2 (bytes
+ * >= 0x80 outside Grbl's list not claimed) were fixed by the engine rebuild;
+ * their inputs are corpus/fuzz_realtime/regress-R*, their unit tests
+ * tests/test_grbl_realtime.c.
  *
  * Cost: MAX_INPUT bytes (fuzz_realtime.options), at most MAX_EVENTS events.
  * FUZZ_REALTIME_VERBOSE=1 prints the conversation of an input.
@@ -57,22 +51,11 @@
 #include "pk_grbl.h"
 #include "pk_uart.h"
 
-/* Until the engine rebuild lands: its init gained a non-volatile store argument. */
-#ifdef PK_GRBL_NVM_BYTES
-#define GRBL_INIT(g, io, mo, m) pk_grbl_init((g), (io), (mo), (m), NULL, NULL)
-#else
-#define GRBL_INIT(g, io, mo, m) pk_grbl_init((g), (io), (mo), (m), NULL)
-#endif
-
-#ifndef FZ_STRICT
-#define FZ_STRICT 0
-#endif
 
 #define MAX_INPUT 512u
 #define MAX_EVENTS 256u
 #define MAXSEQ 1024u     /* move lines per input (sequence numbers) */
 #define FIFO 256u        /* lines in flight (answered or cut ones leave it) */
-#define RING_EVENTS 16u  /* R1: the engine's realtime event ring */
 
 static struct pk_grbl G;
 static struct pk_uart U;
@@ -194,14 +177,13 @@ static struct {
 } P;
 static unsigned long q_bytes, reports;
 static int status_owed;
-static uint8_t claims[256]; /* what the filter claims (asked once per input, on a scratch engine) */
 
 static int is_rt(uint8_t b) { return b == '?' || b == '!' || b == '~' || b == 0x18 || b >= 0x80; }
 
 static void rx_byte(uint8_t b)
 {
     int r = pk_uart_rx_push(&U, b);
-    if ((FZ_STRICT & 2) != 0 && is_rt(b))
+    if (is_rt(b))
         FZ_CHECK(r == PK_UART_RX_REALTIME, "the filter claims every realtime byte (all >= 0x80)");
     if (b == '?' || b == '!' || b == '~' || b == 0x18)
         FZ_CHECK(r == PK_UART_RX_REALTIME, "the filter claims '?', '!', '~' and Ctrl-X");
@@ -226,8 +208,6 @@ static void burst(struct fz_in *in, unsigned n)
         uint8_t b = v < 0x80u ? common[v % sizeof common] : v;
         if (b == 0x18 && (v & 0x70u) != 0u)
             b = '?'; /* Ctrl-X: 1 in 8 of those */
-        if ((FZ_STRICT & 2) == 0 && !claims[b])
-            b = '?'; /* R2: the engine does not claim it; not sent in the default build */
         rx_byte(b);
     }
 }
@@ -351,12 +331,11 @@ static void main_loop(void)
     if (P.reset) {
         status_owed = 0; /* a report still waiting for room goes with the reset */
     } else {
-        int ring_ok = (FZ_STRICT & 1) != 0 || P.events <= RING_EVENTS; /* R1 */
-        if (P.hold && running && ring_ok)
+        if (P.hold && running)
             FZ_CHECK(M.holds > holds, "a '!' holds a running machine by the next main loop run");
-        if (P.cycle && held && !P.hold && ring_ok)
+        if (P.cycle && held && !P.hold)
             FZ_CHECK(M.resumes > resumes, "a '~' resumes a held machine by the next main loop run");
-        if (P.status && ring_ok)
+        if (P.status)
             status_owed = 1;
     }
     if (M.holds > holds)
@@ -432,14 +411,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         .configure = m_configure,
     };
     struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &U };
-    /* what the filter claims, asked on a scratch engine (the filter's only state is the engine's) */
-    static struct pk_grbl scratch;
-    FZ_CHECK(GRBL_INIT(&scratch, &io, &mo, &M) == 0, "init with default settings");
-    for (unsigned b = 0; b < 256u; b++)
-        claims[b] = (uint8_t)(pk_grbl_rt_filter(&scratch, (uint8_t)b) != 0);
-    M.holds = M.resumes = M.resets = 0;
     pk_uart_init(&U, pk_grbl_rt_filter, &G);
-    FZ_CHECK(GRBL_INIT(&G, &io, &mo, &M) == 0, "init with default settings");
+    FZ_CHECK(pk_grbl_init(&G, &io, &mo, &M, NULL, NULL) == 0, "init with default settings");
 
     unsigned events = 0;
     while (fz_more(&in) && events++ < MAX_EVENTS) {
