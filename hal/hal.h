@@ -85,7 +85,7 @@ typedef void (*pk_hal_input_cb)(void *arg, uint32_t raw_levels, uint64_t tick);
  *
  * now_ticks: the low 32 bits of the clock (clock_ticks) at this call -- the
  * tick it runs at, or the tick it was due at (a backend that runs callbacks
- * behind the clock, like the POSIX loop, may pass that instead; never a tick
+ * behind the clock may pass that instead; never a tick
  * before it was due).
  * Returns the delay in ticks from now_ticks to the next call: the backend
  * runs it at now_ticks + delay (0: at once, as soon as it can), or
