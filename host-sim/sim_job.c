@@ -709,6 +709,8 @@ static void job_start_engine(struct pk_sim_job *j)
     struct pk_grbl_settings set;
     if (pk_sim_cfg_to_grbl(j->cfg, &set, NULL, 0) != 0)
         pk_grbl_settings_default(&set);
+    if (j->m->hard_limits)
+        set.v[PK_GRBL_S_HARD_LIMITS] = 1; /* the machine was given hard limits: Grbl's $21=1 */
     j->gm.set = set;
     memset(j->nvm_buf, 0xff, sizeof j->nvm_buf);
     j->ram.buf = j->nvm_buf;
