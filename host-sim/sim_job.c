@@ -167,7 +167,7 @@ static const char *stored_only(int idx)
     case PK_GRBL_S_LIMIT_INVERT: case PK_GRBL_S_PROBE_INVERT: case PK_GRBL_S_HARD_LIMITS:
     case PK_GRBL_S_HOMING_DIR: case PK_GRBL_S_HOMING_FEED: case PK_GRBL_S_HOMING_SEEK:
     case PK_GRBL_S_HOMING_DEBOUNCE: case PK_GRBL_S_HOMING_PULLOFF:
-        return "stored: no limit switch or probe inputs yet";
+        return "acts only with --switch/--input inputs ($21: use --hard-limits)";
     case PK_GRBL_S_REPORT_MASK: case PK_GRBL_S_REPORT_INCHES:
         return "status reports only";
     default: return NULL;
