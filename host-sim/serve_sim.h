@@ -4,10 +4,12 @@
  * the SAME simulated machine as `plotkin sim` (host-sim/sim_run.h: libgpiod
  * backend on the mock GPIO chip, simulated clock and scheduler, pin trace
  * decoded on the fly with the driver's timing checks). So the summary on exit
- * is `plotkin sim`'s (sim_report.h), measured from the pins the same way.
+ * is `plotkin sim`'s (sim_report.h), measured from the pins the same way,
+ * the path deviation included (the engine's observer feeds the programmed
+ * path as in `plotkin sim`; lines are the session's, 1 = the first received).
  *
  * Memory stays flat however long the session: no pin edge, decoded step or
- * executed path is kept (the decoder measures as the edges happen); only the
+ * executed path is kept (the programmed path lives in its fixed window) (the decoder measures as the edges happen); only the
  * list of timing violations grows, by one entry per violation.
  *
  * Single-threaded. Storage is caller-owned and large (heap or static).
