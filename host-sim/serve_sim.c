@@ -94,10 +94,17 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
 int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
                            const struct pk_grbl_nvm *nvm_in)
 {
+    return pk_serve_sim_start_in(s, chip, lim, nvm_in, NULL, 0);
+}
+
+int pk_serve_sim_start_in(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                          const struct pk_grbl_nvm *nvm_in, const struct pk_sim_input *in, size_t n_in)
+{
     memset(s, 0, sizeof *s);
     pk_sim_cfg_default(&s->cfg);
     struct pk_sim_opts o = { .chip = chip, .cfg = &s->cfg, .program = "", .len = 0, .lim = *lim,
-                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s };
+                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s,
+                             .inputs = in, .n_inputs = n_in };
     if (pk_sim_start(&o, &s->r) != 0)
         return -1;
     /* A server is never "stuck": it waits for its sender as long as it takes. */

@@ -49,6 +49,13 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
 int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
                            const struct pk_grbl_nvm *nvm);
 
+/** The same on a machine with input lines: scripted edges and switches
+ *  along the axes (sim_machine.h; they must outlive s), as `plotkin sim
+ *  --input/--switch` (NULL, 0: none). The Grbl settings then act on them
+ *  ($21 hard limits, $H, G38.x, Pn:). */
+int pk_serve_sim_start_in(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                          const struct pk_grbl_nvm *nvm, const struct pk_sim_input *in, size_t n_in);
+
 /**
  * Run the firmware (engine main loop, machine poll, step-timer callbacks at
  * their exact ticks) for `ticks` more ticks of simulated time (> 0).

@@ -93,12 +93,79 @@ static void test_a_program_sent_to_serve_ends_on_the_steps_plotkin_sim_decodes(v
     pk_serve_sim_free(&s);
 }
 
+/* Everything the engine sent since the last call, appended to buf. */
+static void collect(struct pk_serve_sim *s, char *buf, size_t cap, size_t *n)
+{
+    uint8_t b[64];
+    size_t k;
+    while ((k = pk_uart_tx_pop(&s->uart, b, sizeof b)) > 0) {
+        if (*n + k + 1 < cap) {
+            memcpy(buf + *n, b, k);
+            *n += k;
+            buf[*n] = 0;
+        }
+    }
+}
+
+/* Run (1 ms slices) until text has come after from, at most ms. */
+static int run_for(struct pk_serve_sim *s, char *buf, size_t cap, size_t *n, size_t from,
+                   const char *text, int ms)
+{
+    for (int i = 0; i < ms; i++) {
+        if (strstr(buf + from, text) != NULL)
+            return 1;
+        if (pk_serve_sim_run(s, 1000) != 0)
+            return 0;
+        collect(s, buf, cap, n);
+    }
+    return strstr(buf + from, text) != NULL;
+}
+
+static void test_hard_limit_and_probe_through_the_gpiod_backend_on_the_mock_chip(void)
+{
+    static struct pk_serve_sim s;
+    static char buf[1 << 14];
+    size_t n = 0, from;
+    const struct pk_timing_limits lim = PK_TIMING_DRV8825;
+    /* X's limit switch at 40 mm, a touch plate under Z at -2 mm (80 steps/mm) */
+    static const struct pk_sim_input in[] = {
+        { .is_switch = 1, .input = PK_IN_LIMIT_X, .axis = 0, .side = +1, .at_steps = 3200 },
+        { .is_switch = 1, .input = PK_IN_PROBE, .axis = 2, .side = -1, .at_steps = -160 },
+    };
+    TH_ASSERT_EQ(pk_serve_sim_start_in(&s, "test-serve-in", &lim, NULL, in, 2), 0);
+    send_all(&s, "$21=1\nG21 G90 G38.2 Z-5 F100\n");
+    from = n;
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, 0, ":1]\r\nok\r\n", 20000));
+    TH_EXPECT(strstr(buf, "[PRB:0.000,0.000,-2.000:1]\r\nok\r\n") != NULL);
+    send_all(&s, "G0 Z0\nG1 X100 Y20 F3000\n");
+    from = n;
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, from, "[MSG:Reset to continue]\r\n", 20000));
+    TH_EXPECT(strstr(buf + from, "ALARM:1\r\n[MSG:Reset to continue]\r\n") != NULL);
+    for (int i = 0; i < 500; i++)
+        TH_ASSERT_EQ(pk_serve_sim_run(&s, 1000), 0);
+    /* the pins (decoded from the mock chip's trace) stopped on the switch */
+    TH_EXPECT_EQ(s.r.dec.pos[0], 3200);
+    TH_EXPECT_EQ(s.r.dec.pos[1], 640);
+    from = n;
+    send_all(&s, "?");
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, from, ">\r\n", 100));
+    char want[64];
+    snprintf(want, sizeof want, "<Alarm|MPos:%.3f,%.3f,%.3f|", s.r.dec.pos[0] / 80.0,
+             s.r.dec.pos[1] / 80.0, s.r.dec.pos[2] / 80.0);
+    TH_EXPECT(strstr(buf + from, want) != NULL);
+    TH_EXPECT(strstr(buf + from, "Pn:X") != NULL);
+    TH_ASSERT_EQ(pk_serve_sim_finish(&s), 0);
+    TH_EXPECT_EQ(s.r.job.alarms, 1ul);
+    pk_serve_sim_free(&s);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_a_program_sent_to_serve_ends_on_the_steps_plotkin_sim_decodes),
+        TH_CASE(test_hard_limit_and_probe_through_the_gpiod_backend_on_the_mock_chip),
     };
     return th_run(cases, TH_COUNT(cases));
 }
