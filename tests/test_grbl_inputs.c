@@ -245,6 +245,16 @@ static void homing_without_a_switch_in_reach_is_alarm_9_then_a_reset(void)
     pk_uart_rx_push(&S.uart, 0x18);
     TH_ASSERT(run_until("unlock]\r\n", 500));
     HAS(out + mark, "ALARM:6\r\nok\r\n\r\nGrbl 1.1h");
+    /* the door opening during the cycle: ALARM:7 */
+    mark = outn;
+    send("$H\n");
+    step(300 * MS);
+    HAS(status(), "<Home|");
+    TH_ASSERT(pk_rec_input_at(&S.rec, S.rec.now + 1000, PK_IN_DOOR, 1) == 0);
+    mark = outn;
+    TH_ASSERT(run_until("unlock]\r\n", 500));
+    HAS(out + mark, "ALARM:7\r\nok\r\n\r\nGrbl 1.1h");
+    TH_ASSERT(pk_rec_input_at(&S.rec, S.rec.now + 1000, PK_IN_DOOR, 0) == 0);
     /* no switches at all: $H is refused loudly */
     start(0);
     HAS(line("$22=1", 100), "[MSG:No limit switches: $H cannot run, $X unlocks]\r\nok");
