@@ -18,7 +18,6 @@
  *   - when the program has run out and the machine is idle, every axis is
  *     exactly at round(target_um * steps_per_mm / 1000) (ties away from
  *     zero, computed here in exact integers) of the last accepted target.
- *     Allowance while finding M5 is open (FZ_STRICT bit 16): one step off.
  *   - a failing HAL write puts the machine in ALARM, which refuses moves
  *     with PK_MOTION_EALARM; reset leaves it; EFULL/ERANGE change nothing.
  *   - speed: any 32 consecutive steps of an axis (31 intervals) take at
@@ -36,10 +35,6 @@
  *     the position on the pins never leaves the box, whatever the smoothing
  *     (to the step within half a step of the path: [ceil(lo - 1/2),
  *     floor(hi + 1/2)] in steps).
- *     Allowance while finding M4 is open (FZ_STRICT bit 8; make
- *     fuzz-findings sets it): a run of feed moves that starts where the
- *     machine stands after init or a reset (no rapid before it) is not held
- *     to the box, since the machine's DLG bound leaves that start point out.
  *   - overrides: 10..200 % feed and 1..100 % rapid accepted, others ERANGE;
  *     the axis rates stay within their max rates whatever the override.
  *   - a pen change dwells: no step edge within pen_settle_ms after the tool
@@ -94,8 +89,6 @@ static struct {
     uint64_t edges;
     uint64_t reset_until;      /* a reset caught a pulse: idle from then on (0: none) */
     int soft_armed;            /* soft limits on, machine inside: check every step */
-    int unseeded;              /* M4: since init or a reset, no rapid yet */
-    int m4_skip;               /* M4: a feed move was accepted unseeded: no box check */
     int64_t slo[PK_AXES], shi[PK_AXES]; /* the box in steps */
     uint64_t settle_until;     /* a pen change: no step edge before (0: none) */
     uint32_t settle_ticks;
@@ -138,10 +131,10 @@ static int h_step(void *c, uint32_t mask, uint32_t levels)
                         (unsigned long long)H.now, (unsigned long long)(H.now - (H.settle_until - H.settle_ticks)),
                         (unsigned)H.settle_ticks);
             FZ_CHECK(H.now >= H.settle_until, "no step during the dwell after a pen change");
-            if (H.soft_armed && !H.m4_skip && (H.pos[a] < H.slo[a] || H.pos[a] > H.shi[a]))
+            if (H.soft_armed && (H.pos[a] < H.slo[a] || H.pos[a] > H.shi[a]))
                 fprintf(stderr, "axis %u at %lld steps, soft limits [%lld, %lld]\n", a,
                         (long long)H.pos[a], (long long)H.slo[a], (long long)H.shi[a]);
-            FZ_CHECK(!H.soft_armed || H.m4_skip || (H.pos[a] >= H.slo[a] && H.pos[a] <= H.shi[a]),
+            FZ_CHECK(!H.soft_armed || (H.pos[a] >= H.slo[a] && H.pos[a] <= H.shi[a]),
                      "the executed path stays inside the soft limits");
             H.edges++;
             /* rate over the last RING steps of this axis */
@@ -368,7 +361,6 @@ static void do_reset(void)
     pk_machine_reset(&MACH);
     H.in_reset = 0;
     H.settle_until = 0; /* a reset drops the dwell */
-    H.unseeded = 1;
 }
 
 static void poll_for(uint64_t ticks)
@@ -446,7 +438,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     check_position();
     H.settle_until = 0; /* init's pen-up write is no pen change: no dwell promised */
-    H.unseeded = 1;
 
     pk_um_t target[PK_AXES] = { 0, 0, 0 }; /* last accepted target */
     pk_um_t cur[PK_AXES] = { 0, 0, 0 };
@@ -473,8 +464,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (VERBOSE)
                 fprintf(stderr, "  feed move to %d %d %d um at %u um/min\n", (int)p[0], (int)p[1], (int)p[2], (unsigned)f);
             soft_check_move(p, r);
-            if (r == PK_MOTION_OK && H.unseeded && (FZ_STRICT & 8) == 0)
-                H.m4_skip = 1;
             if (r == PK_MOTION_OK) {
                 double d2 = 0;
                 for (unsigned a = 0; a < PK_AXES; a++)
@@ -498,7 +487,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 fprintf(stderr, "  rapid to %d %d %d um\n", (int)p[0], (int)p[1], (int)p[2]);
             soft_check_move(p, r);
             if (r == PK_MOTION_OK) {
-                H.unseeded = 0; /* a rapid starts a run at its target */
                 memcpy(target, p, sizeof p);
                 memcpy(cur, p, sizeof p);
                 budget += 2u * TICK_HZ * 100u / W.min_pct;
@@ -683,8 +671,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                              "a chord error over 10 mm is refused");
                 else
                     soft_check_move(p, r);
-                if (r == PK_MOTION_OK && H.unseeded && (FZ_STRICT & 8) == 0)
-                    H.m4_skip = 1;
                 if (r == PK_MOTION_OK) {
                     double d2 = 0;
                     for (unsigned a = 0; a < PK_AXES; a++)
@@ -754,9 +740,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 fprintf(stderr, "axis %u: at %d steps, commanded %d um = %lld steps\n", a, (int)p[a],
                         (int)target[a], (long long)oracle_steps(target[a], CFG.steps_per_mm_q16[a]));
             int64_t off = p[a] - oracle_steps(target[a], CFG.steps_per_mm_q16[a]);
-            /* finding M5 (open): a step short at the end now and then; the
-             * default build allows one step until it is fixed */
-            FZ_CHECK(off == 0 || ((FZ_STRICT & 16) == 0 && (off == 1 || off == -1)),
+            FZ_CHECK(off == 0,
                      "the final position is exactly the commanded one, in steps");
         }
     if (VERBOSE)

@@ -42,13 +42,6 @@
  * pk_refine_max_release() pulls, twice (the reference). Inputs are capped at
  * MAX_INPUT bytes (tests/fuzz/fuzz_refine.options passes the same -max_len);
  * the bytes beyond are ignored.
- *
- * Allowance while finding K2 is open (FZ_STRICT bit 1; make fuzz-findings
- * builds without it): with the limit stage (limit or tangents) every accepted
- * point is clamped to ±PK_UM_MAX/2 per axis, since the stage's differences
- * and sums of two level-K points overflow int64 when F = 42 and the points
- * lie further apart (tests/fuzz/README.md, K2). Out-of-range points are not
- * clamped: they still get PK_ERANGE.
  */
 #include "fuzz_common.h"
 #include "pk_refine.h"
@@ -203,15 +196,6 @@ static int decode_point(struct fz_in *in, unsigned mode, const pk_um_t *prev, un
 #define FZ_STRICT 0
 #endif
 
-/* K2's allowance (see the header): keep limit-stage strokes within half the range. */
-static void k2_allow(const struct pk_refine_cfg *c, unsigned dims, pk_um_t *p)
-{
-    if ((FZ_STRICT & 1) != 0 || !(c->limit || c->tangents))
-        return;
-    for (unsigned a = 0; a < dims; a++)
-        p[a] = p[a] > PK_UM_MAX / 2 ? PK_UM_MAX / 2 : p[a] < -(PK_UM_MAX / 2) ? -(PK_UM_MAX / 2) : p[a];
-}
-
 static void start_stroke(struct stroke *s) { memset(s, 0, sizeof *s); }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -269,7 +253,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             pk_um_t p[PK_AXES];
             int ok = decode_point(&in, (op >> 3) % 5u, prev, dims, p);
             if (ok)
-                k2_allow(&c, dims, p);
             if (ok && (s.m >= cap || s.m >= MAXPTS || done_out + s.nout >= WORK_OUT))
                 break; /* harness limits: the stroke's output fits the buffers; work per input */
             snap = r;
@@ -357,7 +340,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                     int64_t v = (int64_t)prev[a] + (int64_t)((walk >> 8) % 200001u) - 100000;
                     p[a] = (pk_um_t)(v > PK_UM_MAX ? PK_UM_MAX : v < -PK_UM_MAX ? -PK_UM_MAX : v);
                 }
-                k2_allow(&c, dims, p);
                 FZ_CHECK(pk_refine_push(&r, p) == PK_OK, "push after NEED_INPUT is accepted");
                 memcpy(PTS[s.m++], p, sizeof p);
                 memcpy(prev, p, sizeof p);

@@ -1,21 +1,24 @@
 /*
- * findings_motion.c — deterministic reproducer of the open finding M4 in the
- * motion core's soft-limit check (firmware/pk_motion.c, move_req/run_box),
- * found by tests/fuzz/fuzz_motion.c (input:
- * tests/fuzz/findings/fuzz_motion/M4-dlg-leaves-soft-limits-from-the-start).
- * Fails while the finding is open, so it runs in `make fuzz-findings`, not in
- * `make test`; once fixed, move the cases to tests/test_motion_api.c.
+ * test_motion_findings.c — the motion core's fuzz findings M4 and M5, fixed,
+ * kept as regression tests (their inputs are in tests/fuzz/corpus/fuzz_motion/
+ * as regress-M4-* and regress-M5-*; tests/fuzz/README.md tells the story).
  *
- * With DLG smoothing the path can leave the hull of its control points, and
- * pk_machine_move bounds that overshoot from the run's targets (their box
- * and second differences). The stroke's first control point is where the
- * machine stands, but a run that starts right after init or after a reset
- * (no rapid before it) does not contain that point, so the bound misses the
- * overshoot next to it: Y 0, 40, 3200 (ghost -40) puts DLG's first new point
- * at (40 + 9*0 + 9*40 - 3200)/16 = -175 um, below a soft limit at Y = 0,
- * and both moves are accepted. Expected (the contract of
- * pk_machine_set_soft_limits): a move refused with ETRAVEL, or the executed
- * path (decoded from the step pins) inside the box.
+ * M4 (soft limits): with DLG smoothing the path can leave the hull of its
+ * control points, and pk_machine_move bounds that overshoot from the run's
+ * points (their box and second differences). A run that started right after
+ * init or after a reset left out where the machine stands, the stroke's first
+ * control point: Y 0, 40, 3200 (ghost -40) put DLG's first new point at
+ * (40 + 9*0 + 9*40 - 3200)/16 = -175 um, below a soft limit at Y = 0, and
+ * both moves were accepted. Now every run starts at the planned position
+ * (pk_motion.c, run_start): a move is refused with ETRAVEL, or the executed
+ * path (decoded from the step pins) stays inside the box.
+ *
+ * M5 (exact end): 137.4997 steps/mm, the exact path, feed moves to -40 um
+ * then 1960 um: the second block's ends, in Q8 steps, are -5.5 and 269.5
+ * (275 steps of distance) for 274 whole steps, so its per-event increment
+ * exceeded one step, the first event missed and the block ended a step
+ * short. An axis now steps at most once per event by construction (its
+ * increment is capped at the period).
  */
 #include <stdlib.h>
 #include <string.h>
