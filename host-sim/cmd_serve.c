@@ -4,6 +4,7 @@
  * pseudo-terminal, so any G-code sender can connect as if to a board.
  *
  *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N] [--eeprom FILE]
+ *                 [--input T:NAME=V] [--switch NAME:AXIS:MM[:-]]
  *
  * The simulated clock follows the wall clock times N (--speed). Each loop
  * iteration moves bytes between the pty and the UART shim (the "RX/TX
@@ -25,6 +26,10 @@
  * --eeprom FILE keeps the settings, offsets and startup lines in FILE (the
  * board's EEPROM: hal/posix/pk_nvm_file.h) across runs; without it they
  * start from the defaults every time.
+ * --input / --switch give the machine input lines as in `plotkin sim`
+ * (sim_inputs.h; a switch's mm are turned into steps with the default
+ * steps/mm, an edge's seconds count from the start of the session); the Grbl
+ * settings act on them ($21=1 hard limits, $H, G38.x, Pn:).
  * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
@@ -44,6 +49,7 @@
 #include <time.h>
 #include "commands.h"
 #include "serve_sim.h"
+#include "sim_inputs.h"
 #include "sim_report.h"
 #include "posix/pk_nvm_file.h"
 #include "posix/pk_serve_port.h"
@@ -76,6 +82,8 @@ static void usage(FILE *f)
           "  --device PATH  serve on a real serial device instead of a pty (raw mode)\n"
           "  --baud N       baud rate for --device (default 115200)\n"
           "  --eeprom FILE  keep settings, offsets and startup lines in FILE across runs\n"
+          "  --input T:NAME=V, --switch NAME:AXIS:MM[:-]  input lines, as in plotkin sim\n"
+          "                 (then $21=1 hard limits, $H, G38.x and Pn: act on them)\n"
           "Stops on SIGINT/SIGTERM and prints a summary.\n",
           f);
 }
@@ -93,6 +101,7 @@ static const char *state_name(int st)
 
 int cmd_serve(int argc, char **argv)
 {
+    static struct pk_sim_inputs inputs;
     const char *link = NULL, *device = NULL, *eeprom = NULL;
     long speed = 1, baud = 115200;
     for (int i = 1; i < argc; i++) {
@@ -105,6 +114,13 @@ int cmd_serve(int argc, char **argv)
             device = argv[++i];
         } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc) {
             eeprom = argv[++i];
+        } else if ((!strcmp(argv[i], "--input") || !strcmp(argv[i], "--switch")) && i + 1 < argc) {
+            char ierr[160];
+            if (pk_sim_inputs_add(&inputs, argv[i], argv[i + 1], ierr, sizeof ierr) != 0) {
+                fprintf(stderr, "plotkin serve: %s\n", ierr);
+                return 2;
+            }
+            i++;
         } else if ((!strcmp(argv[i], "--speed") || !strcmp(argv[i], "--baud")) && i + 1 < argc) {
             char *end;
             long v = strtol(argv[i + 1], &end, 10);
@@ -137,7 +153,11 @@ int cmd_serve(int argc, char **argv)
     }
     struct pk_serve_sim *sim = calloc(1, sizeof *sim);
     const struct pk_timing_limits lim = PK_TIMING_DRV8825;
-    if (sim == NULL || pk_serve_sim_start_nvm(sim, "plotkin-serve0", &lim, nvmp) != 0) {
+    struct pk_sim_cfg dcfg;
+    pk_sim_cfg_default(&dcfg);
+    pk_sim_inputs_resolve(&inputs, dcfg.tick_hz, dcfg.steps_per_mm);
+    if (sim == NULL ||
+        pk_serve_sim_start_in(sim, "plotkin-serve0", &lim, nvmp, inputs.in, inputs.n) != 0) {
         fprintf(stderr, "plotkin serve: cannot initialise the machine%s%s\n", sim ? ": " : "",
                 sim ? sim->r.err : "");
         if (sim)
