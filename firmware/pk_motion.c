@@ -332,10 +332,13 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
  * position): its first control point is where the machine stands, so the
  * envelope of a first feed move covers what DLG makes of it (finding M4:
  * DLG's first new point lay outside the box of the targets alone). */
+/* Z's index (a 2-axis build has none: then unused, and in range) */
+#define Z_AX (PK_AXES > 2 ? 2 : 0)
+
 static void run_start(struct pk_machine *m)
 {
     run_add(m, m->target_um, false);
-    m->req_z_um = m->target_um[2];
+    m->req_z_um = m->target_um[Z_AX];
 }
 
 /* A request other than a move ends the run (the stroke ends there). */
@@ -702,7 +705,7 @@ static void take_requests(struct pk_machine *m)
          * thousands of micro-blocks whose look-ahead held the speed down
          * (3.3x slower than exact on a thread-milling helix). */
         bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && axes_of(m) > 2u
-                      && m->stroke.mode != PK_SMOOTH_OFF && r->p[2] != m->req_z_um;
+                      && m->stroke.mode != PK_SMOOTH_OFF && r->p[Z_AX] != m->req_z_um;
         if (z_move) {
             if (open) {
                 pk_stroke_finish(&m->stroke);
@@ -712,13 +715,13 @@ static void take_requests(struct pk_machine *m)
             }
             if (pk_mq_room(&m->mq) == 0)
                 return;
-            m->req_z_um = r->p[2];
+            m->req_z_um = r->p[Z_AX];
             (void)plan_line(m, r->p, r->arg, true);
             req_pop(m);
             continue;
         }
         if (r->type == PK_REQ_MOVE)
-            m->req_z_um = r->p[2];
+            m->req_z_um = r->p[Z_AX];
         if (r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED) {
             if (open && (m->stroke.finishing || r->arg != m->stroke_feed)) {
                 pk_stroke_finish(&m->stroke);
