@@ -216,6 +216,8 @@ struct pk_machine {
     pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
     pk_um_t target_um[PK_AXES];          /**< exact position the plan has reached, µm:
                                               where the next block starts (MAIN) */
+    pk_um_t req_z_um;                    /**< Z of the last move taken from the FIFO: a feed
+                                              move that changes it bypasses smoothing (MAIN) */
     pk_um_min_t stroke_feed;             /**< feed of the open stroke, µm/min (MAIN) */
     bool line_pending;                   /**< a straight move is being planned in pieces */
     pk_um_t line_p[PK_AXES];             /**< its end (MAIN) */
