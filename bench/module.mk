@@ -23,7 +23,7 @@ AVR_BENCH_FLAGS := $(TGT_FLAGS_avr) -Os -g -std=c11 -ffunction-sections -fdata-s
                    -Ifirmware -Ihal -Ibench/avr -I/usr/include/simavr/avr
 $(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h hal/pk_kernel_nolimit.c $(TGT_DIR)/avr-ax%/libplotkin_fw.a
 	@mkdir -p $(@D)
-	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -Wl,--gc-sections $(FW_NOLIMIT_LDFLAGS) \
+	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -Wl,--gc-sections \
 	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< hal/pk_kernel_nolimit.c $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
 $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)

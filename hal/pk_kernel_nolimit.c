@@ -5,51 +5,45 @@
  *
  * The motion core never asks the kernel for limit points or tangents
  * (pk_stroke.c refines without them), but pk_refine_init references the
- * stage, so --gc-sections cannot drop it. Linked with
- * -Wl,--wrap=pk_limit_setup,... the kernel's calls come here instead: setup
- * refuses, so pk_refine_init answers PK_ENOTSUP for any request that would
- * need the stage (loudly, never a silently different curve), and the other
- * entry points are unreachable after a refused setup. Everything the image
- * does is unchanged. To be replaced by the kernel's own per-build scheme
- * selection when it exists.
+ * stage, so --gc-sections cannot drop it. Such an image is built without
+ * pk_limit.c and pk_masks.c, and the stage's entry points are these instead
+ * (plain definitions rather than -Wl,--wrap, which a link-time-optimised
+ * link does not apply): setup refuses, so pk_refine_init answers PK_ENOTSUP
+ * for any request that would need the stage (loudly, never a silently
+ * different curve), and the other entry points are unreachable after a
+ * refused setup. Everything the image does is unchanged. To be replaced by
+ * the kernel's own per-build scheme selection when it exists.
  */
 #include "pk_refine_internal.h"
 
-int __wrap_pk_limit_setup(struct pk_refine *r);
-int __wrap_pk_limit_ready(const struct pk_refine *r);
-int __wrap_pk_limit_exhausted(const struct pk_refine *r);
-void __wrap_pk_limit_feed(struct pk_refine *r, const pk_w8_t *p);
-void __wrap_pk_limit_finish(struct pk_refine *r);
-void __wrap_pk_limit_emit(struct pk_refine *r, struct pk_refine_out *out);
-
-int __wrap_pk_limit_setup(struct pk_refine *r)
+int pk_limit_setup(struct pk_refine *r)
 {
     (void)r;
     return PK_ENOTSUP;
 }
 
 /* Never reached (no stream has the stage); harmless answers if they were. */
-int __wrap_pk_limit_ready(const struct pk_refine *r)
+int pk_limit_ready(const struct pk_refine *r)
 {
     (void)r;
     return 0;
 }
 
-int __wrap_pk_limit_exhausted(const struct pk_refine *r)
+int pk_limit_exhausted(const struct pk_refine *r)
 {
     (void)r;
     return 1;
 }
 
-void __wrap_pk_limit_feed(struct pk_refine *r, const pk_w8_t *p)
+void pk_limit_feed(struct pk_refine *r, const pk_w8_t *p)
 {
     (void)r;
     (void)p;
 }
 
-void __wrap_pk_limit_finish(struct pk_refine *r) { (void)r; }
+void pk_limit_finish(struct pk_refine *r) { (void)r; }
 
-void __wrap_pk_limit_emit(struct pk_refine *r, struct pk_refine_out *out)
+void pk_limit_emit(struct pk_refine *r, struct pk_refine_out *out)
 {
     (void)r;
     (void)out;

@@ -12,8 +12,15 @@ BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64
 # Shared register save/restore sequences: about 5 % less flash, a few cycles
-# more per call of a function that saves many registers.
-BOARD_CFLAGS := -mcall-prologues
+# more per call of a function that saves many registers. -mstrict-X: pointer
+# arithmetic stays off the X register (it has no displacement addressing).
+BOARD_CFLAGS := -mcall-prologues -mstrict-X
+# Link-time optimisation, and no inlining outside the step path and the
+# interrupt handlers (BOARD_HOT_SRC, compiled as on the Mega): flash first
+# on this part; the main loop pays a call per small helper.
+BOARD_LTO := 1
+BOARD_COLD_CFLAGS := -fno-inline
+BOARD_HOT_SRC := firmware/pk_stepgen.c hal/avr/pk_avr_timer.c hal/avr/pk_avr_uart.c hal/pk_uart.c
 # The host comparator (`plotkin sim` with this build's knobs): plotkin sim's
 # job feeds a line only when 5 requests fit (host-sim/sim_job.c), so it needs
 # a deeper request FIFO than the Grbl engine on the board; the FIFO depth
