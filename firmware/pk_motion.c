@@ -182,10 +182,17 @@ uint32_t pk_machine_room(const struct pk_machine *m)
 }
 
 /* Does the smoothing policy requested last (the one later moves will get)
- * use a scheme that can leave the hull of its control points? */
+ * use a scheme that can leave the hull of its control points? Only DLG, and
+ * only a build with DLG's window can run it (pk_stroke_check refuses it
+ * otherwise). */
 static bool policy_overshoots(const struct pk_smooth_cfg *s)
 {
+#if PK_MOTION_DLG
     return s->mode == PK_SMOOTH_FIXED && s->scheme == PK_SCHEME_DLG && s->depth > 0u;
+#else
+    (void)s;
+    return false;
+#endif
 }
 
 /* The box [lo, hi] the smoothed path of the current run (the feed moves since
@@ -196,24 +203,32 @@ static bool policy_overshoots(const struct pk_smooth_cfg *s)
  * D2[i-1] - D2[i+1])/16, new ones: (D2[i] + D2[i+1])/8), so the whole path
  * stays within max|D2|/8 * (1 + 1/2 + 1/4 + ...) = max|D2|/4 of the control
  * polygon, per axis. B-splines stay in the hull. Returns the run box grown by
- * that bound (+1 µm for the kernel's rounding). */
+ * that bound (+1 µm for the kernel's rounding). All in 32 bits: coordinates
+ * within ±PK_UM_MAX, so |D2| <= 4 PK_UM_MAX < 2^23 and the box within
+ * ±(PK_UM_MAX + 2^21 + 1). */
 static void run_box(const struct pk_machine *m, const pk_um_t t[PK_AXES], bool dlg,
-                    int64_t lo[PK_AXES], int64_t hi[PK_AXES])
+                    int32_t lo[PK_AXES], int32_t hi[PK_AXES])
 {
     for (uint32_t i = 0; i < axes_of(m); i++) {
-        int64_t a = t[i], b = t[i];
-        uint64_t d2 = 0;
+        int32_t a = t[i], b = t[i];
         if (m->acc_n > 0) {
             if (m->acc_lo[i] < a) a = m->acc_lo[i];
             if (m->acc_hi[i] > b) b = m->acc_hi[i];
-            d2 = m->acc_d2[i];
         }
-        if (m->acc_n >= 2) {
-            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
-            uint64_t ad = (uint64_t)(d < 0 ? -d : d);
-            if (ad > d2) d2 = ad;
+        int32_t g = 0;
+#if PK_MOTION_DLG
+        if (dlg) {
+            uint32_t d2 = m->acc_n > 0 ? m->acc_d2[i] : 0u;
+            if (m->acc_n >= 2) {
+                int32_t d = t[i] - 2 * m->acc_last[i] + m->acc_prev[i];
+                uint32_t ad = (uint32_t)(d < 0 ? -d : d);
+                if (ad > d2) d2 = ad;
+            }
+            g = (int32_t)((d2 + 3u) / 4u) + 1;
         }
-        int64_t g = dlg ? (int64_t)((d2 + 3u) / 4u) + 1 : 0;
+#else
+        (void)dlg;
+#endif
         lo[i] = a - g;
         hi[i] = b + g;
     }
@@ -224,28 +239,36 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
     if (!feed) {
         /* a rapid starts a new run at its target */
         m->acc_n = 1;
-        memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+        memcpy(m->acc_last, t, sizeof m->acc_last);
         memcpy(m->acc_lo, t, sizeof m->acc_lo);
         memcpy(m->acc_hi, t, sizeof m->acc_hi);
+#if PK_MOTION_DLG
         memset(m->acc_d2, 0, sizeof m->acc_d2);
+#endif
         return;
     }
     for (uint32_t i = 0; i < axes_of(m); i++) {
         if (m->acc_n == 0) {
             m->acc_lo[i] = m->acc_hi[i] = t[i];
+#if PK_MOTION_DLG
             m->acc_d2[i] = 0;
+#endif
             continue;
         }
         if (t[i] < m->acc_lo[i]) m->acc_lo[i] = t[i];
         if (t[i] > m->acc_hi[i]) m->acc_hi[i] = t[i];
+#if PK_MOTION_DLG
         if (m->acc_n >= 2) {
-            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
+            int32_t d = t[i] - 2 * m->acc_last[i] + m->acc_prev[i]; /* |.| < 2^23 */
             uint32_t ad = (uint32_t)(d < 0 ? -d : d);
             if (ad > m->acc_d2[i]) m->acc_d2[i] = ad;
         }
+#endif
     }
-    memcpy(m->acc_p[0], m->acc_p[1], sizeof m->acc_p[0]);
-    memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+#if PK_MOTION_DLG
+    memcpy(m->acc_prev, m->acc_last, sizeof m->acc_prev);
+#endif
+    memcpy(m->acc_last, t, sizeof m->acc_last);
     if (m->acc_n < 2)
         m->acc_n++;
 }
@@ -254,7 +277,7 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
 static void run_break(struct pk_machine *m)
 {
     if (m->acc_n > 0)
-        run_add(m, m->acc_p[1], false);
+        run_add(m, m->acc_last, false);
 }
 
 static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
@@ -270,7 +293,7 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
     {
-        int64_t lo[PK_AXES], hi[PK_AXES];
+        int32_t lo[PK_AXES], hi[PK_AXES];
         bool dlg = kind == PK_MOVE_FEED && policy_overshoots(&m->acc_policy);
         if (kind == PK_MOVE_FEED) {
             run_box(m, target, dlg, lo, hi);
@@ -432,6 +455,13 @@ static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
     return pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
 }
 
+/* The displacement of n steps in µm Q8: n * 1000 * 256 * 65536 / spmm,
+ * rounded: the steps of a displacement within 2 PK_UM_MAX, so < 2^31. */
+static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
+{
+    return (int32_t)pk_div_round64((int64_t)n * ((int64_t)256000 << PK_SPMM_Q16_SHIFT), (int64_t)spmm);
+}
+
 /*
  * Plan the straight move from the planned position (target_um, exactly; its
  * whole steps target_steps) towards p, at most PK_PLANNER_MAX_STEPS steps of
@@ -475,7 +505,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         /* a piece along the way (the rest follows in later blocks) */
         uint32_t k = (mx + PK_PLANNER_MAX_STEPS - 1u) / PK_PLANNER_MAX_STEPS;
         for (uint32_t i = 0; i < axes; i++)
-            p[i] = (pk_um_t)(m->target_um[i] + ((int64_t)p_in[i] - m->target_um[i]) / (int64_t)k);
+            p[i] = m->target_um[i] + (p_in[i] - m->target_um[i]) / (int32_t)k; /* |.| < 2^23 */
         done = 0;
         mx = 0;
         for (uint32_t i = 0; i < axes; i++) {
@@ -492,10 +522,9 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
             m->junction_sharp = true;  /* the corner moved to where the next block starts */
         return done;
     }
-    int64_t d_q8[PK_AXES] = { 0 };
-    for (uint32_t i = 0; i < axes; i++)   /* n * 1000 * 256 * 65536 / spmm: |n| <= 2^21 */
-        d_q8[i] = pk_div_round64((int64_t)n[i] * ((int64_t)256000 << PK_SPMM_Q16_SHIFT),
-                                 (int64_t)m->cfg.steps_per_mm_q16[i]);
+    int32_t d_q8[PK_AXES] = { 0 };
+    for (uint32_t i = 0; i < axes; i++)
+        d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
     for (uint32_t i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
@@ -514,17 +543,21 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
             b->acc0[i] = -1;
             continue;
         }
-        int64_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
+        /* qa, qb: up to 2^21 µm * 10,000 steps/mm * 256 > 2^32, but target_steps
+         * = round(qa / 256) (the position contract), so |f| <= 128; |d| <=
+         * 256 (|n| + 1) <= 2^30; f is clamped to [-384, 383] (d >= 256 (|n| - 1)),
+         * so |(f - 128) * mx| <= 512 * 2^21: everything after qa, qb fits 32 bits */
+        int32_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
         int64_t qa = um_to_q8steps(m->target_um[i], m->cfg.steps_per_mm_q16[i]);
         int64_t qb = um_to_q8steps(p[i], m->cfg.steps_per_mm_q16[i]);
-        int64_t f = (qa - 256 * (int64_t)m->target_steps[i]) * sgn;
-        int64_t d = (qb - qa) * sgn;
+        int32_t f = (int32_t)(qa - 256 * (int64_t)m->target_steps[i]) * sgn;
+        int32_t d = (int32_t)(qb - qa) * sgn;
         if (d < 0)
             d = 0;
-        int64_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
+        int32_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
         f = f < lo ? lo : f > hi ? hi : f;
         b->inc[i] = (uint32_t)d;
-        b->acc0[i] = (int32_t)((f - 128) * (int64_t)mx);   /* |.| <= 512 * 2^21 */
+        b->acc0[i] = (f - 128) * (int32_t)mx;
     }
     m->lines_planned++;
     m->replan = true;
