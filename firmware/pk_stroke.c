@@ -129,6 +129,8 @@ int pk_stroke_check(const struct pk_smooth_cfg *s)
     if (s == NULL || s->mode > PK_SMOOTH_TOLERANCE || s->sharp_turn_deg > 180u)
         return -1;
     if (s->mode == PK_SMOOTH_FIXED) {
+        if (!PK_STROKE_FIXED)
+            return -2; /* the mode is not built into this firmware */
         if (s->scheme > PK_SCHEME_DLG || s->depth > PK_MAX_DEPTH)
             return -1;
         if (s->scheme == PK_SCHEME_BSPLINE && (s->degree < 1u || s->degree > 7u))
@@ -408,16 +410,18 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
         return -1;
     st->open = true;
     st->finishing = false;
+#if PK_STROKE_FIXED
     st->split_pending = false;
     st->have_pend = false;
+    st->n_in = 1;
+    memcpy(st->prev2, start, sizeof st->prev2);
+#endif
     st->have_out = false;
     st->emit_n = 0;
-    st->n_in = 1;
     st->nq = 0;
     st->q_head = 0;
     st->ncorner = 0;
     memcpy(st->prev, start, sizeof st->prev);
-    memcpy(st->prev2, start, sizeof st->prev2);
     if (st->mode == PK_SMOOTH_OFF)
         return 0;
     kernel_start(st, start);
@@ -434,6 +438,7 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     return 0;
 }
 
+#if PK_STROKE_FIXED
 /* FIXED: does the vertex prev (between prev2 and q) have to stay sharp? */
 static bool must_split(const struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
@@ -453,12 +458,39 @@ static bool must_split(const struct pk_stroke *st, const pk_um_t q[PK_AXES])
     return cos_q30 < st->cos_sharp;
 }
 
+/* FIXED: the next vertex into the kernel (or held, at a split or a full kernel). */
+static int fixed_add(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+{
+    if (must_split(st, p)) {
+        memcpy(st->pend, p, sizeof st->pend);
+        st->have_pend = true;
+        st->split_pending = true;
+        pk_refine_finish(&st->k);
+        return PK_OK;
+    }
+    int r = pk_refine_push(&st->k, p);
+    if (r == PK_EBUSY) {
+        memcpy(st->pend, p, sizeof st->pend);
+        st->have_pend = true;
+    } else if (r != PK_OK) {
+        return r;
+    } else {
+        observe(st, PK_STROKE_EV_CTRL, p);
+    }
+    return PK_OK;
+}
+#endif
+
 int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_err_um)
 {
     if (!st->open || st->finishing)
         return PK_ESTATE;
-    if (st->have_pend || st->have_out || st->split_pending || st->nq > 0)
+    if (st->have_out || st->nq > 0)
         return PK_EBUSY;
+#if PK_STROKE_FIXED
+    if (st->have_pend || st->split_pending)
+        return PK_EBUSY;
+#endif
     if (memcmp(p, st->prev, sizeof st->prev) == 0)
         return PK_OK; /* zero-length: nothing to draw, no vertex */
     if (st->mode == PK_SMOOTH_OFF) {
@@ -470,25 +502,18 @@ int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_
         st->nv++;
         if (st->nv == 3)
             advance(st);
-    } else if (must_split(st, p)) {
-        memcpy(st->pend, p, sizeof st->pend);
-        st->have_pend = true;
-        st->split_pending = true;
-        pk_refine_finish(&st->k);
     } else {
-        int r = pk_refine_push(&st->k, p);
-        if (r == PK_EBUSY) {
-            memcpy(st->pend, p, sizeof st->pend);
-            st->have_pend = true;
-        } else if (r != PK_OK) {
+#if PK_STROKE_FIXED
+        int r = fixed_add(st, p);
+        if (r != PK_OK)
             return r;
-        } else {
-            observe(st, PK_STROKE_EV_CTRL, p);
-        }
+#endif
     }
+#if PK_STROKE_FIXED
     memcpy(st->prev2, st->prev, sizeof st->prev);
-    memcpy(st->prev, p, sizeof st->prev);
     st->n_in++;
+#endif
+    memcpy(st->prev, p, sizeof st->prev);
     return PK_OK;
 }
 
@@ -497,8 +522,10 @@ void pk_stroke_finish(struct pk_stroke *st)
     if (!st->open || st->finishing)
         return;
     st->finishing = true;
+#if PK_STROKE_FIXED
     if (st->mode == PK_SMOOTH_FIXED && !st->have_pend)
         pk_refine_finish(&st->k);
+#endif
     /* TOLERANCE: the last leg is queued once the queue has drained (pull) */
 }
 
@@ -644,8 +671,10 @@ void pk_stroke_reset(struct pk_stroke *st)
         pk_refine_reset(&st->k);
     st->open = false;
     st->finishing = false;
+#if PK_STROKE_FIXED
     st->split_pending = false;
     st->have_pend = false;
+#endif
     st->have_out = false;
     st->emit_n = 0;
     st->nq = 0;
@@ -707,6 +736,7 @@ static int feed_kernel(struct pk_stroke *st)
         }
         return PK_NEED_INPUT;
     }
+#if PK_STROKE_FIXED
     if (st->have_pend && !st->split_pending) {
         int pr = pk_refine_push(&st->k, st->pend);
         if (pr == PK_OK) {
@@ -719,6 +749,7 @@ static int feed_kernel(struct pk_stroke *st)
         if (pr != PK_EBUSY)
             return pr;
     }
+#endif
     return PK_NEED_INPUT;
 }
 
@@ -758,12 +789,17 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
             return PK_NEED_INPUT;
         }
         if (r == PK_END) {
+#if PK_STROKE_FIXED
             observe(st, PK_STROKE_EV_END, st->mode == PK_SMOOTH_TOLERANCE ? st->v[0] : st->prev2);
+#else
+            observe(st, PK_STROKE_EV_END, st->v[0]);
+#endif
             if (st->have_cand) {
                 emit_f(st, st->cand, true); /* the stroke's end, or a split vertex */
                 memcpy(st->anchor, st->cand, sizeof st->anchor);
                 st->have_cand = false;
             }
+#if PK_STROKE_FIXED
             if (st->split_pending) {
                 /* FIXED: the stroke ended at the sharp vertex (prev2 holds it) */
                 st->split_pending = false;
@@ -781,6 +817,7 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
                     pk_refine_finish(&st->k);
                 continue;
             }
+#endif
             st->kernel_end = true;
             continue;
         }

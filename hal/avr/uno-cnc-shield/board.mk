@@ -10,7 +10,7 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # level), short queues: see the size table of `make firmware`.
 BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
-               -DPK_UART_TX_SIZE=64
+               -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0
 # Shared register save/restore sequences: about 5 % less flash, a few cycles
 # more per call of a function that saves many registers. -mstrict-X: pointer
 # arithmetic stays off the X register (it has no displacement addressing).
