@@ -17,24 +17,25 @@ enum { PK_REQ_MOVE = 0, PK_REQ_PEN, PK_REQ_DWELL, PK_REQ_SMOOTH, PK_REQ_END, PK_
 /** Work items per poll (bounds the main-loop latency). */
 #define POLL_BUDGET 64u
 
-static uint32_t axes_of(const struct pk_machine *m) { return m->cfg.axes; }
-
 static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
 {
-    uint32_t axes = c->axes ? c->axes : PK_AXES;
+    unsigned axes = c->axes ? c->axes : PK_AXES;
     if (axes < 2u || axes > PK_AXES || axes > PK_HAL_MAX_AXES)
         return -1;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         if (c->steps_per_mm_q16[i] < PK_SPMM_Q16_MIN || c->steps_per_mm_q16[i] > PK_SPMM_Q16_MAX)
             return -1;
         if (c->max_rate[i] < 1u || c->max_rate[i] > PK_UM_MIN_MAX)
             return -1;
         if (c->accel[i] < 1u || c->accel[i] > PK_UM_S2_MAX)
             return -1;
-        /* the fastest step train must leave room for a pulse and a gap */
-        uint64_t sps = ((uint64_t)c->max_rate[i] * c->steps_per_mm_q16[i])
-                       / (60000ull << PK_SPMM_Q16_SHIFT);
-        if (sps * 2u * (uint64_t)(c->step_pulse_ticks ? c->step_pulse_ticks : 1u) > tick_hz)
+        /* the fastest step train must leave room for a pulse and a gap:
+         * 2 sps pulse > tick_hz, with sps < 2^24 steps/s (the ranges above)
+         * and 2 t > T <=> t > floor(T / 2) for integers (a saturated product
+         * is beyond any tick rate too) */
+        uint32_t sps = pk_muldiv_u32(c->max_rate[i], c->steps_per_mm_q16[i],
+                                     (uint32_t)60000u << PK_SPMM_Q16_SHIFT);
+        if (pk_mulshr_u32(sps, c->step_pulse_ticks ? c->step_pulse_ticks : 1u, 0) > tick_hz / 2u)
             return -1;
     }
     if (c->junction_dev_um < 0 || c->junction_dev_um > 10000)
@@ -53,8 +54,8 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
  * position the machine can represent.) */
 static bool pos_fits(const pk_steps_t pos[PK_AXES], const struct pk_motion_cfg *c)
 {
-    uint32_t axes = c->axes ? c->axes : PK_AXES;
-    for (uint32_t i = 0; i < axes; i++) {
+    unsigned axes = c->axes ? c->axes : PK_AXES;
+    for (unsigned i = 0; i < axes; i++) {
         int64_t um = ((int64_t)pos[i] * ((int64_t)1000 << PK_SPMM_Q16_SHIFT)) / c->steps_per_mm_q16[i];
         if (um > PK_UM_MAX || um < -PK_UM_MAX)
             return false;
@@ -70,13 +71,13 @@ static void setup_modules(struct pk_machine *m)
     struct pk_planner_limits lim;
     memset(&lim, 0, sizeof lim);
     lim.axes = m->cfg.axes;
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         lim.max_rate[i] = cfg->max_rate[i];
         lim.accel[i] = cfg->accel[i];
     }
     lim.junction_dev_um = cfg->junction_dev_um;
     lim.accel_min = cfg->accel[0];
-    for (uint32_t i = 1; i < axes_of(m); i++)
+    for (unsigned i = 1; i < m->cfg.axes; i++)
         if (cfg->accel[i] < lim.accel_min)
             lim.accel_min = cfg->accel[i];
     pk_planner_init(&m->planner, &lim);
@@ -140,10 +141,10 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     if (m->cfg.axes == 0)
         m->cfg.axes = PK_AXES;
     setup_modules(m);
-    for (uint32_t i = 0; i < PK_AXES; i++) {
-        m->sg.pos[i] = i < axes_of(m) ? pos[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++) {
+        m->sg.pos[i] = i < m->cfg.axes ? pos[i] : 0;
         m->target_steps[i] = m->sg.pos[i];
-        m->target_um[i] = i < axes_of(m) ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
+        m->target_um[i] = i < m->cfg.axes ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
     }
     m->sg.dir_cur = dir;
     m->sg.alarm = alarm;
@@ -209,7 +210,7 @@ static bool policy_overshoots(const struct pk_smooth_cfg *s)
 static void run_box(const struct pk_machine *m, const pk_um_t t[PK_AXES], bool dlg,
                     int32_t lo[PK_AXES], int32_t hi[PK_AXES])
 {
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         int32_t a = t[i], b = t[i];
         if (m->acc_n > 0) {
             if (m->acc_lo[i] < a) a = m->acc_lo[i];
@@ -247,7 +248,7 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
 #endif
         return;
     }
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         if (m->acc_n == 0) {
             m->acc_lo[i] = m->acc_hi[i] = t[i];
 #if PK_MOTION_DLG
@@ -289,7 +290,7 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
         return PK_MOTION_ERANGE;
     if (kind == PK_MOVE_FEED && (feed < PK_UM_MIN_MIN || feed > PK_UM_MIN_MAX))
         return PK_MOTION_ERANGE;
-    for (uint32_t i = 0; i < axes_of(m); i++)
+    for (unsigned i = 0; i < m->cfg.axes; i++)
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
     {
@@ -298,10 +299,10 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
         if (kind == PK_MOVE_FEED) {
             run_box(m, target, dlg, lo, hi);
         } else {
-            for (uint32_t i = 0; i < axes_of(m); i++)
+            for (unsigned i = 0; i < m->cfg.axes; i++)
                 lo[i] = hi[i] = target[i];
         }
-        for (uint32_t i = 0; i < axes_of(m); i++) {
+        for (unsigned i = 0; i < m->cfg.axes; i++) {
             if (lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
                 return PK_MOTION_ERANGE;
             if (m->soft_on && (lo[i] < m->soft_lo[i] || hi[i] > m->soft_hi[i]))
@@ -314,8 +315,8 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     run_add(m, target, kind == PK_MOVE_FEED);
     r->type = PK_REQ_MOVE;
     r->kind = (uint8_t)kind;
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        r->p[i] = i < axes_of(m) ? target[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        r->p[i] = i < m->cfg.axes ? target[i] : 0;
     r->arg = kind == PK_MOVE_FEED ? feed : 0u;
     r->chord_err_um = chord_err_um;
     return req_commit(m);
@@ -423,7 +424,7 @@ int pk_machine_set_soft_limits(struct pk_machine *m, bool on, const pk_um_t lo[P
     if (on) {
         if (lo == NULL || hi == NULL)
             return PK_MOTION_ERANGE;
-        for (uint32_t i = 0; i < axes_of(m); i++)
+        for (unsigned i = 0; i < m->cfg.axes; i++)
             if (lo[i] > hi[i] || lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
                 return PK_MOTION_ERANGE;
         memcpy(m->soft_lo, lo, sizeof m->soft_lo);
@@ -488,12 +489,12 @@ static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
  */
 static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_min_t feed)
 {
-    const uint32_t axes = axes_of(m);
+    const unsigned axes = m->cfg.axes;
     pk_um_t p[PK_AXES];
     memcpy(p, p_in, sizeof p);
     pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
     uint32_t mx = 0;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
         n[i] = st[i] - m->target_steps[i];
         uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
@@ -504,11 +505,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     if (mx > PK_PLANNER_MAX_STEPS) {
         /* a piece along the way (the rest follows in later blocks) */
         uint32_t k = (mx + PK_PLANNER_MAX_STEPS - 1u) / PK_PLANNER_MAX_STEPS;
-        for (uint32_t i = 0; i < axes; i++)
+        for (unsigned i = 0; i < axes; i++)
             p[i] = m->target_um[i] + (p_in[i] - m->target_um[i]) / (int32_t)k; /* |.| < 2^23 */
         done = 0;
         mx = 0;
-        for (uint32_t i = 0; i < axes; i++) {
+        for (unsigned i = 0; i < axes; i++) {
             st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
             n[i] = st[i] - m->target_steps[i];
             uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
@@ -523,10 +524,10 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         return done;
     }
     int32_t d_q8[PK_AXES] = { 0 };
-    for (uint32_t i = 0; i < axes; i++)
+    for (unsigned i = 0; i < axes; i++)
         d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
-    for (uint32_t i = 0; i < axes; i++)
+    for (unsigned i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
     uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
     if (m->sg.prep_active && pk_mq_count(&m->mq) == 1u)
@@ -537,7 +538,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
     b->spindle = m->spindle_q16;
     b->period = 256u * mx;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0) {
             b->inc[i] = 0;
             b->acc0[i] = -1;
@@ -718,7 +719,8 @@ static void check_idle(struct pk_machine *m)
         return;
     }
     uint32_t ms = m->cfg.lookahead_wait_ms ? m->cfg.lookahead_wait_ms : PK_LOOKAHEAD_WAIT_MS_DEFAULT;
-    if (now - m->wait_since < (uint64_t)ms * m->hal->tick_hz / 1000u)
+    /* ms <= 60,000 and tick_hz <= 2^24: the wait in ticks is below 2^30 */
+    if (now - m->wait_since < pk_muldiv_u32(ms, m->hal->tick_hz, 1000u))
         return;
     pk_stroke_finish(&m->stroke);
     m->flush = true;
@@ -840,7 +842,7 @@ bool pk_machine_reset(struct pk_machine *m)
     m->wait_since = 0;
     m->acc_n = 0;
     m->acc_policy = m->policy_applied;
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = m->sg.pos[i];
         m->target_um[i] = pk_steps_to_um(m->sg.pos[i], m->cfg.steps_per_mm_q16[i]);
     }
@@ -860,8 +862,8 @@ void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *
 void pk_machine_position_steps(const struct pk_machine *m, pk_steps_t out[PK_AXES])
 {
     uint32_t tok = pk_hal_irq_save(m->hal);
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        out[i] = i < axes_of(m) ? m->sg.pos[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        out[i] = i < m->cfg.axes ? m->sg.pos[i] : 0;
     pk_hal_irq_restore(m->hal, tok);
 }
 
@@ -869,8 +871,8 @@ void pk_machine_position_um(const struct pk_machine *m, pk_um_t out[PK_AXES])
 {
     pk_steps_t s[PK_AXES];
     pk_machine_position_steps(m, s);
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        out[i] = i < axes_of(m) ? pk_steps_to_um(s[i], m->cfg.steps_per_mm_q16[i]) : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        out[i] = i < m->cfg.axes ? pk_steps_to_um(s[i], m->cfg.steps_per_mm_q16[i]) : 0;
 }
 
 enum pk_machine_state pk_machine_state(const struct pk_machine *m)
