@@ -4,6 +4,7 @@
 #   make bench         host benchmarks against the peers, AVR cycle counts, motion time
 #   make bench-host    kernel vs double baseline vs npm peers (bench/run_bench.py)
 #   make bench-avr     exact cycles under simavr: the kernel on an ATmega328P, the board images
+#   make bench-sizes   flash and state of every kernel build (bench/kernel_sizes.py)
 #   make bench-corpus  real G-code files through plotkin sim (bench/corpus/module.mk)
 include tests/targets/module.mk
 include bench/corpus/module.mk
@@ -29,7 +30,18 @@ $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)
 	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf
 
-AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf
+# 3. The kernel as a 328P board should carry it: Chaikin with clamped ends
+#    only (pk_refine_chaikin.c), 2 axes, to depth 5 (32-bit values), no limit.
+AVR_CHAIKIN_DEFS := -DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 \
+                    -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0
+$(eval $(call tgt_fw_rule,avr-chaikin,$(AVR_CC),$(TGT_FLAGS_avr) $(AVR_CHAIKIN_DEFS)))
+$(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(AVR_CC) $(AVR_BENCH_FLAGS) $(AVR_CHAIKIN_DEFS) -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
+
+AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf \
+                  $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf
 AVR_BOARDS := $(foreach f,$(sort $(wildcard hal/avr/*/board.mk)),$(notdir $(patsubst %/,%,$(dir $(f)))))
 
 # The measurement whose cycles are broken down by function (3-axis build).
@@ -42,6 +54,9 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS) firmware-images $(BUILD)/pl
 	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes" "$(AVR_PROFILE)"
+	@echo "the Chaikin-only kernel (pk_refine_chaikin.c: clamped ends, 2 axes, depth <= 5, no limit stage);"
+	@echo "issue 14's goal for chaikin d4: <= 300 cycles per output point"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf "chaikin" | grep -v 'init failed' | grep .
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR kernel bench image (2 axes):"s" bytes"}'
 	@$(PYTHON3) bench/avr_bench.py $(BUILD) $(AVR_BOARDS)
 
@@ -61,6 +76,11 @@ bench/node_modules/.plotkin-stamp: bench/package.json
 	@touch $@
 
 BENCH_ARGS ?=
+# Flash and state of every kernel build, Cortex-M0+ and AVR (bench/kernel_sizes.py)
+.PHONY: bench-sizes
+bench-sizes:
+	@$(PYTHON3) bench/kernel_sizes.py --build $(BUILD)/kernel-sizes
+
 .PHONY: bench-host
 bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_modules/.plotkin-stamp
 	@$(PYTHON3) bench/run_bench.py --build $(BENCH_DIR) $(BENCH_ARGS)
@@ -71,7 +91,7 @@ bench-host: $(BENCH_DIR)/bench_refine $(BENCH_DIR)/baseline_double bench/node_mo
 bench:
 	@bash .ci/deps.sh base targets
 	@for t in valgrind node npm; do command -v $$t >/dev/null || { bash .ci/deps.sh bench; break; }; done
-	@$(MAKE) --no-print-directory bench-host bench-avr
+	@$(MAKE) --no-print-directory bench-host bench-sizes bench-avr
 
 # bench/module.mk — benchmark programs (print tables; never pass/fail).
 #   make bench-motion   total motion time: smoothing off vs tolerance vs an ideal trapezoid

@@ -14,6 +14,13 @@
  *                      (1 LSB = 1/256 µm). Inputs are shifted in exactly;
  *                      PK_UM_MAX << 8 < 2^29 leaves two bits of headroom for
  *                      the sums of the refinement masks (see pk_refine.c).
+ *   pk_umf_t   int64   the kernel's exact working values: micrometres with F
+ *              (int32) fraction bits, N / 2^F µm, where F is fixed per stream
+ *                      (its depth and scheme, at most 42; pk_refine.c). No
+ *                      rounding happens in this format: every level-K point
+ *                      of the refinement is such a dyadic rational exactly.
+ *                      32 bits in builds whose F never exceeds 10
+ *                      (PK_UMF_BITS, set by pk_refine.h), so |N| < 2^31.
  *   pk_q30_t   int32   a unit-vector component in Q1.30 (1.0 = 2^30), used for
  *                      curve tangents and move directions.
  *
@@ -34,6 +41,17 @@ typedef int32_t pk_w8_t;
 #define PK_W8_SHIFT 8
 #define PK_W8_ONE_UM ((pk_w8_t)1 << PK_W8_SHIFT)
 
+#ifndef PK_UMF_BITS
+#define PK_UMF_BITS 64
+#endif
+#if PK_UMF_BITS == 64
+typedef int64_t pk_umf_t;
+#elif PK_UMF_BITS == 32
+typedef int32_t pk_umf_t;
+#else
+#error "PK_UMF_BITS must be 32 or 64"
+#endif
+
 typedef int32_t pk_q30_t;
 #define PK_Q30_ONE ((pk_q30_t)1 << 30)
 
@@ -51,8 +69,32 @@ static inline int64_t pk_rshift_round64(int64_t x, unsigned s)
     return x >= 0 ? (x + half) >> s : -((-x + half) >> s);
 }
 
+/** Round x / 2^f to the nearest micrometre, ties away from zero (f >= 1,
+ *  half = 2^(f-1); the result fits pk_um_t when |x| < 2^(f+31)). Branch-free:
+ *  adding -1 for negative x turns floor((x + half) / 2^f) into its mirror
+ *  image (arithmetic shifts of negative values: pk_refine.c checks that the
+ *  compiler does them). On AVR a shift by 8 first: that is a byte move, where
+ *  a variable shift is a loop (32-bit kernel builds carry F = 8 wherever they
+ *  can, pk_refine_span.c). */
+static inline pk_um_t pk_umf_round(pk_umf_t x, unsigned f, pk_umf_t half)
+{
+    x = x + half + (x >> (PK_UMF_BITS - 1));
+#if defined(__AVR__)
+    if (f == 8u)
+        return (pk_um_t)(x >> 8);
+    return (pk_um_t)(f > 8u ? (x >> 8) >> (f - 8u) : x >> f);
+#else
+    return (pk_um_t)(x >> f);
+#endif
+}
+
 /** floor(sqrt(x)) for any 64-bit x (bitwise, no division, bounded loop). */
 uint32_t pk_isqrt64(uint64_t x);
+
+/** Unit vector (Q1.30) along d (dims <= 3 components); all zero if d is
+ *  zero. Good to ~1e-9 rad; integer operations only and no division (a
+ *  restoring division in 32 bits), so no library divide on small targets. */
+void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t);
 
 /** Round x / d to nearest, ties away from zero. d > 0, |x| < 2^62. */
 static inline int64_t pk_div_round64(int64_t x, int64_t d)

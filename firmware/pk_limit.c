@@ -14,65 +14,346 @@
  * pk_masks.c (see the derivation there). Right-end masks are the mirror images
  * of the left-end ones: same weights, reversed polygon, tangent negated.
  *
+ * Chaikin needs no tables, so its stage is written out: an anchor is an edge
+ * of the level-K polygon, its limit point the edge's midpoint and its tangent
+ * the edge itself; with clamped or replace ends the first and last anchors
+ * are the stroke's end points, with the end edges' tangents. (These are the
+ * table entries "chaikin ..." of pk_masks.h, which test_masks checks.)
+ *
  * Streaming: an anchor is released as soon as all points of its stencil have
  * arrived and enough points follow it to be sure it is not one of the last
  * `nend` anchors; the rest are released when the stroke finishes. The window
  * holds PK_LWIN points, and setup rejects a rule that would need more.
  *
- * Rounding: the mask sum is exact in int64; the position is rounded once,
- * from Q.8 µm times the mask denominator to whole µm.
+ * Exactness. The level-K points arrive exact (N / 2^F); a position is the
+ * mask sum over them, formed exactly in int64 and rounded once to whole µm.
+ * Where den * 2^(F + 22) would overflow (degrees 5..7 deep down) the points
+ * first drop the excess fraction bits (pk_refine.h states the bound). A
+ * tangent is formed from the exact edge vectors L(k+1) - L(k) (a tangent mask
+ * sums to zero, so it is a combination of them), which stay small on dense
+ * input: nothing is lost there to rounding.
  */
-#include "pk_masks.h"
 #include "pk_refine_internal.h"
 
 #include <stddef.h>
 
-static const struct pk_limit_rule *rule_of(const struct pk_refine *r)
+#if PK_BUILD_LIMIT && !PK_CHAIKIN_ONLY /* (pk_refine_chaikin.c has its own) */
+
+#if PK_LIMIT_TABLES
+#include "pk_masks.h"
+
+#endif
+
+static const pk_umf_t *lim_at(const struct pk_limit_stage *ls, int back)
 {
-    return (const struct pk_limit_rule *)r->lim_rule;
+    return ls->w[PK_LWIN - 1 - back];
 }
 
+static int lim_fin(const struct pk_limit_stage *ls) { return (ls->st & LV_FIN) != 0u; }
+
+static void lim_advance(struct pk_limit_stage *ls)
+{
+    if (ls->a < 255u)
+        ls->a++;
+    ls->lag--;
+}
+
+#if PK_LIMIT_TABLES
+/* Index of the most significant set bit + 1 (0 for 0). */
+static unsigned bits_of(uint64_t x)
+{
+    unsigned b = 0;
+    while (x) {
+        x >>= 1;
+        b++;
+    }
+    return b;
+}
+
+static uint64_t mag64(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
+#endif
+
+/* Round s / 2^F (s exact, F + sh fraction bits) to whole µm, ties away. */
+static pk_um_t round_shift(int64_t s, unsigned f)
+{
+    return f ? (pk_um_t)pk_rshift_round64(s, f) : (pk_um_t)s;
+}
+
+/* ---- Chaikin, written out --------------------------------------------------- */
+
+#if PK_LIMIT_TABLES
+static int is_chaikin(const struct pk_refine *r) { return r->lim.rule == NULL; }
+#endif
+
+/* Anchor a (edge L(a) L(a+1)) may go: both points are in and, on an open
+ * stroke, a further point shows it is not the last anchor (whose limit is
+ * the end point) and the polygon has at least 3 points. */
+static int ch_released(const struct pk_refine *r)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    if (lim_fin(ls))
+        return ls->n <= 2u ? ls->a < ls->n : ls->lag >= 1;
+    if (r->cfg.closed || (r->ends == PK_ENDS_NONE && ls->n >= 3u))
+        return ls->lag >= 1; /* no end anchors: only the 2-point rule waits */
+    return ls->lag >= 2;
+}
+
+static void ch_emit(struct pk_refine *r, struct pk_refine_out *out)
+{
+    struct pk_limit_stage *ls = &r->lim;
+    unsigned dims = r->cfg.dims;
+    int64_t d[PK_AXES];
+    const pk_umf_t *A, *B, *P = NULL;
+    if (lim_fin(ls) && ls->n <= 2u) { /* 1 point: itself; 2: the straight stroke */
+        A = lim_at(ls, (int)ls->n - 1);
+        B = lim_at(ls, 0);
+        P = lim_at(ls, (int)ls->n - 1 - (int)ls->a);
+    } else {
+        A = lim_at(ls, ls->lag);
+        B = lim_at(ls, ls->lag - 1);
+        if (!r->cfg.closed && r->ends != PK_ENDS_NONE) {
+            if (ls->a == 0u)
+                P = A; /* the stroke's first point */
+            else if (lim_fin(ls) && ls->lag == 1)
+                P = B; /* its last */
+        }
+    }
+    for (unsigned a = 0; a < dims; a++) {
+        out->p[a] = P ? pk_out_round(r, P[a]) : round_shift((int64_t)A[a] + B[a], r->F + 1u);
+        d[a] = (int64_t)B[a] - A[a];
+    }
+    if (r->cfg.tangents)
+        pk_unit_q30(d, dims, out->t);
+    lim_advance(ls);
+}
+
+/* ---- table-driven ----------------------------------------------------------- */
+
+#if PK_LIMIT_TABLES
 static int mask_last(const struct pk_mask *m) { return m->first + (int)m->len - 1; }
 
 /* Largest "last offset" over the masks an anchor may use before the end is
  * known (uniform and left-end), and smallest first offset. */
-static void rule_reach(const struct pk_limit_rule *ru, int *hi, int *lo)
+static void rule_reach(const struct pk_limit_stage *ls, int *hi, int *lo)
 {
-    *hi = mask_last(&ru->pos_uniform);
-    *lo = ru->pos_uniform.first;
-    if (mask_last(&ru->tan_uniform) > *hi)
-        *hi = mask_last(&ru->tan_uniform);
-    if (ru->tan_uniform.first < *lo)
-        *lo = ru->tan_uniform.first;
-    for (unsigned d = 0; d < ru->nend && d < 4u; d++) {
-        int h1 = mask_last(&ru->pos_end[d]);
-        int h2 = mask_last(&ru->tan_end[d]);
-        if (h1 > *hi)
-            *hi = h1;
-        if (h2 > *hi)
-            *hi = h2;
+    struct pk_mask m;
+    pk_limit_rule_mask(ls->rule, 0, &m);
+    *hi = mask_last(&m);
+    *lo = m.first;
+    pk_limit_rule_mask(ls->rule, 1, &m);
+    if (m.len && mask_last(&m) > *hi)
+        *hi = mask_last(&m);
+    if (m.len && m.first < *lo)
+        *lo = m.first;
+    for (unsigned d = 0; d < ls->nend && d < 4u; d++)
+        for (unsigned w = 0; w < 2u; w++) {
+            pk_limit_rule_mask(ls->rule, 2u + 4u * w + d, &m);
+            if (m.len && mask_last(&m) > *hi)
+                *hi = mask_last(&m);
+        }
+}
+
+/* Anchors still to give after finish, counting dropped ones. */
+static int lim_remaining(const struct pk_refine *r)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    if (r->cfg.closed) {
+        int k = ls->lag - (int)ls->thr + 1;
+        return k > 0 ? k : 0;
+    }
+    if (ls->n <= 2u)
+        return (int)ls->n - (int)ls->a;
+    return ls->lag + 1 - (ls->edge ? 1 : 0);
+}
+
+/* Which masks the front anchor uses: 0 = dropped; mirror: right-end mask. */
+static int anchor_masks(const struct pk_refine *r, struct pk_mask *pos, struct pk_mask *tan, int *mirror)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    *mirror = 0;
+    if (r->cfg.closed) {
+        pk_limit_rule_mask(ls->rule, 0, pos);
+        pk_limit_rule_mask(ls->rule, 1, tan);
+        return 1;
+    }
+    if (lim_fin(ls) && ls->n < ls->min_n) { /* short polygon: per-n masks */
+        unsigned ends = r->cfg.scheme == PK_SCHEME_DLG ? PK_ENDS_NONE : r->ends;
+        if (!pk_limit_small_get(r->cfg.scheme, r->D, ends, ls->n, ls->a, 0, pos))
+            return 0;
+        if (!pk_limit_small_get(r->cfg.scheme, r->D, ends, ls->n, ls->a, 1, tan))
+            tan->len = 0;
+        return 1;
+    }
+    int d = -1;
+    if (ls->a < ls->nend) {
+        d = ls->a;
+    } else if (lim_fin(ls)) {
+        d = lim_remaining(r) - 1; /* distance of this anchor from the last one */
+        if (d < (int)ls->nend)
+            *mirror = 1;
+        else
+            d = -1;
+    }
+    if (d >= 0) {
+        if ((ls->drop >> d) & 1u)
+            return 0;
+        pk_limit_rule_mask(ls->rule, 2u + (unsigned)d, pos);
+        pk_limit_rule_mask(ls->rule, 6u + (unsigned)d, tan);
+        return 1;
+    }
+    pk_limit_rule_mask(ls->rule, 0, pos);
+    pk_limit_rule_mask(ls->rule, 1, tan);
+    return 1;
+}
+
+/* The front anchor may be emitted (or skipped, if dropped) now. */
+static int tab_released(const struct pk_refine *r)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    if (lim_fin(ls))
+        return lim_remaining(r) > 0;
+    if (r->cfg.closed)
+        return ls->lag >= (int)ls->thr;
+    return ls->n >= ls->min_n && ls->n >= 3u && ls->lag >= (int)ls->thr;
+}
+
+/* Skip dropped anchors at the front, as far as they are decided. */
+static void tab_settle(struct pk_refine *r)
+{
+    struct pk_limit_stage *ls = &r->lim;
+    while (tab_released(r)) {
+        if (lim_fin(ls) && !r->cfg.closed && ls->n <= 2u)
+            return;
+        struct pk_mask p, t;
+        int mirror;
+        if (anchor_masks(r, &p, &t, &mirror))
+            return;
+        lim_advance(ls);
     }
 }
 
-/* Lag at which an open-curve anchor may be released before the end is known. */
-static int open_threshold(const struct pk_limit_rule *ru)
+/* Polygon index k of mask m at the front anchor, as "back" from the newest
+ * point. Left-end and uniform masks index points from the anchor: back =
+ * lag - first - k. A right-end (mirrored) mask for the anchor md places from
+ * the last one indexes the reversed polygon, whose point j is the real point
+ * n-1-j, and at finish the newest point is L(n-1): back = md + first + k. */
+static int mask_back(const struct pk_limit_stage *ls, const struct pk_mask *m, int md, unsigned k)
 {
-    int hi, lo;
-    rule_reach(ru, &hi, &lo);
-    int t = (int)ru->nend + (ru->edge_anchors ? 1 : 0);
-    return hi > t ? hi : t;
+    return md >= 0 ? md + m->first + (int)k : ls->lag - m->first - (int)k;
 }
+
+static void tab_position(const struct pk_refine *r, const struct pk_mask *m, int md, pk_um_t *p)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    unsigned dims = r->cfg.dims, F = r->F;
+    /* |L| < 2^(22 + F) (DLG overshoots a little); keep den * that below 2^62 */
+    uint64_t sabs = 0;
+    for (unsigned k = 0; k < m->len; k++)
+        sabs += mag64(pk_mask_w(m, k));
+    unsigned need = 22u + F + bits_of(sabs), e = need > 62u ? need - 62u : 0u;
+    int64_t acc[PK_AXES] = { 0 };
+    for (unsigned k = 0; k < m->len; k++) {
+        const pk_umf_t *L = lim_at(ls, mask_back(ls, m, md, k));
+        int64_t w = pk_mask_w(m, k);
+        for (unsigned a = 0; a < dims; a++)
+            acc[a] += w * (e ? pk_rshift_round64(L[a], e) : (int64_t)L[a]);
+    }
+    unsigned f = F - e, s = 0;
+    int pow2 = 0;
+    for (s = 0; s < 31u; s++)
+        if (m->den == ((int32_t)1 << s)) {
+            pow2 = 1;
+            break;
+        }
+    for (unsigned a = 0; a < dims; a++)
+        p[a] = pow2 ? round_shift(acc[a], s + f)
+                    : (pk_um_t)pk_div_round64(acc[a], (int64_t)m->den * ((int64_t)1 << f));
+}
+
+/* sum_k w_k L_k = sum_k c_k (L(k+1) - L(k)), c_k = -(w_0 + ... + w_k). */
+static void tab_tangent(const struct pk_refine *r, const struct pk_mask *m, int md, pk_q30_t *t)
+{
+    const struct pk_limit_stage *ls = &r->lim;
+    unsigned dims = r->cfg.dims;
+    int64_t d[PK_MASK_MAXLEN][PK_AXES], c[PK_MASK_MAXLEN];
+    uint64_t dmax = 0, cabs = 0;
+    int64_t run = 0;
+    for (unsigned k = 0; k + 1u < m->len; k++) {
+        const pk_umf_t *A = lim_at(ls, mask_back(ls, m, md, k));
+        const pk_umf_t *B = lim_at(ls, mask_back(ls, m, md, k + 1u));
+        run -= pk_mask_w(m, k);
+        c[k] = run;
+        cabs += mag64(run);
+        for (unsigned a = 0; a < dims; a++) {
+            d[k][a] = (int64_t)B[a] - A[a];
+            if (mag64(d[k][a]) > dmax)
+                dmax = mag64(d[k][a]);
+        }
+    }
+    unsigned need = bits_of(dmax) + bits_of(cabs), e = need > 62u ? need - 62u : 0u;
+    int64_t acc[PK_AXES] = { 0 };
+    for (unsigned k = 0; k + 1u < m->len; k++)
+        for (unsigned a = 0; a < dims; a++)
+            acc[a] += c[k] * (e ? pk_rshift_round64(d[k][a], e) : d[k][a]);
+    if (md >= 0)
+        for (unsigned a = 0; a < dims; a++)
+            acc[a] = -acc[a];
+    pk_unit_q30(acc, dims, t);
+}
+
+static void tab_emit(struct pk_refine *r, struct pk_refine_out *out)
+{
+    struct pk_limit_stage *ls = &r->lim;
+    unsigned dims = r->cfg.dims;
+    if (!r->cfg.closed && lim_fin(ls) && ls->n <= 2u) {
+        /* 1 point: itself; 2 points: the straight stroke, tangent along it */
+        const pk_umf_t *p = lim_at(ls, (int)ls->n - 1 - (int)ls->a);
+        int64_t d[PK_AXES];
+        for (unsigned a = 0; a < dims; a++) {
+            out->p[a] = pk_out_round(r, p[a]);
+            d[a] = ls->n == 2u ? (int64_t)lim_at(ls, 0)[a] - lim_at(ls, 1)[a] : 0;
+        }
+        if (r->cfg.tangents)
+            pk_unit_q30(d, dims, out->t);
+        lim_advance(ls);
+        return;
+    }
+    struct pk_mask pos, tan;
+    int mirror;
+    (void)anchor_masks(r, &pos, &tan, &mirror);
+    int md = mirror ? lim_remaining(r) - 1 : -1;
+    tab_position(r, &pos, md, out->p);
+    if (r->cfg.tangents && tan.len != 0u)
+        tab_tangent(r, &tan, md, out->t);
+    lim_advance(ls);
+    tab_settle(r);
+}
+#endif
+
+/* ---- the stage ------------------------------------------------------------ */
 
 int pk_limit_setup(struct pk_refine *r)
 {
+    struct pk_limit_stage *ls = &r->lim;
+    ls->lag = -1;
+    if (r->cfg.scheme == PK_SCHEME_BSPLINE && r->D == 2u) {
+        ls->rule = NULL; /* Chaikin: written out */
+        return PK_LWIN >= 3 ? PK_OK : PK_ENOTSUP;
+    }
+#if PK_LIMIT_TABLES
     unsigned ends = r->cfg.scheme == PK_SCHEME_DLG ? PK_ENDS_NONE : r->ends;
-    const struct pk_limit_rule *ru =
-        pk_limit_rule_get(r->cfg.scheme, r->D, r->cfg.closed, ends);
+    const int32_t *ru = pk_limit_rule_get(r->cfg.scheme, r->D, r->cfg.closed, ends);
     if (ru == NULL)
         return PK_ENOTSUP;
+    struct pk_rule_info info;
+    pk_limit_rule_info(ru, &info);
+    ls->rule = ru;
+    ls->edge = info.edge_anchors;
+    ls->nend = info.nend;
+    ls->drop = info.drop_mask;
+    ls->min_n = info.min_n;
     int hi, lo;
-    rule_reach(ru, &hi, &lo);
-    struct pk_limit_stage *ls = &r->lim;
+    rule_reach(ls, &hi, &lo);
     if (r->cfg.closed) {
         if (hi - lo > PK_LWIN - 1)
             return PK_ENOTSUP;
@@ -82,242 +363,70 @@ int pk_limit_setup(struct pk_refine *r)
         if (r->close_c > PK_CLOSE_MAX)
             return PK_ENOTSUP;
         ls->lag = (int8_t)(-1 + lo); /* first anchor: a0 = -lo */
-        r->lim_thr = (uint8_t)hi;      /* a full stencil has arrived */
+        ls->thr = (uint8_t)hi;       /* a full stencil has arrived */
     } else {
-        int thr = open_threshold(ru);
-        if (thr - lo > PK_LWIN - 1 || ru->min_n > PK_LWIN)
+        int t = (int)ls->nend + (ls->edge ? 1 : 0);
+        int thr = hi > t ? hi : t;
+        if (thr - lo > PK_LWIN - 1 || ls->min_n > PK_LWIN)
             return PK_ENOTSUP;
-        ls->lag = -1;
-        r->lim_thr = (uint8_t)thr;     /* ... and the anchor is not an end one */
+        ls->thr = (uint8_t)thr; /* ... and the anchor is not an end one */
     }
-    r->lim_rule = ru;
     return PK_OK;
+#else
+    return PK_ENOTSUP;
+#endif
 }
 
-static const pk_w8_t *lim_at(const struct pk_limit_stage *ls, int back)
+int pk_limit_ready(const struct pk_refine *r)
 {
-    return ls->w[PK_LWIN - 1 - back];
+#if PK_LIMIT_TABLES
+    if (!is_chaikin(r))
+        return tab_released(r);
+#endif
+    return ch_released(r);
 }
-
-/* Which masks anchor (front) uses; NULL pos = dropped. */
-struct anchor_masks {
-    const struct pk_mask *pos, *tan;
-    int mirror; /* 1: right-end mask, points indexed from the end */
-};
-
-static int lim_fin(const struct pk_limit_stage *ls) { return (ls->st & LV_FIN) != 0u; }
-
-/* Anchors still to give after finish, counting dropped ones. */
-static int lim_remaining(const struct pk_refine *r)
-{
-    const struct pk_limit_stage *ls = &r->lim;
-    const struct pk_limit_rule *ru = rule_of(r);
-    if (r->cfg.closed) {
-        int k = ls->lag - (int)r->lim_thr + 1;
-        return k > 0 ? k : 0;
-    }
-    if (ls->n <= 2u)
-        return (int)ls->n - (int)ls->a;
-    return ls->lag + 1 - (ru->edge_anchors ? 1 : 0);
-}
-
-static void anchor_masks_of(const struct pk_refine *r, struct anchor_masks *am)
-{
-    const struct pk_limit_stage *ls = &r->lim;
-    const struct pk_limit_rule *ru = rule_of(r);
-    am->mirror = 0;
-    if (r->cfg.closed) {
-        am->pos = &ru->pos_uniform;
-        am->tan = &ru->tan_uniform;
-        return;
-    }
-    if (lim_fin(ls) && ls->n < ru->min_n) { /* short polygon: per-n masks */
-        unsigned ends = r->cfg.scheme == PK_SCHEME_DLG ? PK_ENDS_NONE : r->ends;
-        am->pos = pk_limit_small_get(r->cfg.scheme, r->D, ends, ls->n, ls->a, 0);
-        am->tan = pk_limit_small_get(r->cfg.scheme, r->D, ends, ls->n, ls->a, 1);
-        return;
-    }
-    if (ls->a < ru->nend) {
-        unsigned d = ls->a;
-        am->pos = (ru->drop_mask >> d) & 1u ? NULL : &ru->pos_end[d];
-        am->tan = &ru->tan_end[d];
-        return;
-    }
-    if (lim_fin(ls)) {
-        int d = lim_remaining(r) - 1; /* distance of this anchor from the last one */
-        if (d < (int)ru->nend) {
-            am->pos = (ru->drop_mask >> d) & 1u ? NULL : &ru->pos_end[d];
-            am->tan = &ru->tan_end[d];
-            am->mirror = 1;
-            return;
-        }
-    }
-    am->pos = &ru->pos_uniform;
-    am->tan = &ru->tan_uniform;
-}
-
-/* The front anchor may be emitted (or skipped, if dropped) now. */
-static int lim_released(const struct pk_refine *r)
-{
-    const struct pk_limit_stage *ls = &r->lim;
-    const struct pk_limit_rule *ru = rule_of(r);
-    if (lim_fin(ls))
-        return lim_remaining(r) > 0;
-    if (r->cfg.closed)
-        return ls->lag >= (int)r->lim_thr;
-    return ls->n >= ru->min_n && ls->n >= 3u && ls->lag >= (int)r->lim_thr;
-}
-
-static void lim_advance(struct pk_limit_stage *ls)
-{
-    if (ls->a < 255u)
-        ls->a++;
-    ls->lag--;
-}
-
-/* Skip dropped anchors at the front, as far as they are decided. */
-static void lim_settle(struct pk_refine *r)
-{
-    struct pk_limit_stage *ls = &r->lim;
-    while (lim_released(r)) {
-        if (lim_fin(ls) && !r->cfg.closed && ls->n <= 2u)
-            return;
-        struct anchor_masks am;
-        anchor_masks_of(r, &am);
-        if (am.pos != NULL)
-            return;
-        lim_advance(ls);
-    }
-}
-
-int pk_limit_ready(const struct pk_refine *r) { return lim_released(r); }
 
 int pk_limit_exhausted(const struct pk_refine *r)
 {
-    return lim_fin(&r->lim) && !lim_released(r);
+    return lim_fin(&r->lim) && !pk_limit_ready(r);
 }
 
-void pk_limit_feed(struct pk_refine *r, const pk_w8_t *p)
+void pk_limit_feed(struct pk_refine *r, const pk_umf_t *p)
 {
     struct pk_limit_stage *ls = &r->lim;
     for (unsigned k = 0; k + 1u < PK_LWIN; k++)
-        for (unsigned a = 0; a < r->cfg.dims; a++)
+        for (unsigned a = 0; a < PK_AXES; a++)
             ls->w[k][a] = ls->w[k + 1u][a];
-    for (unsigned a = 0; a < r->cfg.dims; a++)
+    for (unsigned a = 0; a < PK_AXES; a++)
         ls->w[PK_LWIN - 1u][a] = p[a];
     if (ls->n < 255u)
         ls->n++;
     if (ls->lag < 100)
         ls->lag++;
-    lim_settle(r);
+#if PK_LIMIT_TABLES
+    if (!is_chaikin(r))
+        tab_settle(r);
+#endif
 }
 
 void pk_limit_finish(struct pk_refine *r)
 {
     r->lim.st |= LV_FIN;
-    lim_settle(r);
-}
-
-void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t)
-{
-    uint64_t mx = 0;
-    for (unsigned a = 0; a < dims; a++) {
-        uint64_t m = d[a] < 0 ? (uint64_t)0 - (uint64_t)d[a] : (uint64_t)d[a];
-        if (m > mx)
-            mx = m;
-    }
-    for (unsigned a = 0; a < dims; a++)
-        t[a] = 0;
-    if (mx == 0u)
-        return;
-    /* Scale so that the largest component lies in [2^29, 2^30): enough bits
-     * for a direction good to ~1e-9 rad, and d^2 sums fit in uint64. */
-    int sh = 0;
-    while ((mx >> sh) >= ((uint64_t)1 << 30))
-        sh++;
-    int up = 0;
-    while ((mx << up) < ((uint64_t)1 << 29))
-        up++;
-    int64_t v[PK_AXES];
-    uint64_t ss = 0;
-    for (unsigned a = 0; a < dims; a++) {
-        v[a] = sh ? pk_rshift_round64(d[a], (unsigned)sh) : d[a] * ((int64_t)1 << up);
-        ss += (uint64_t)(v[a] < 0 ? -v[a] : v[a]) * (uint64_t)(v[a] < 0 ? -v[a] : v[a]);
-    }
-    int64_t len = (int64_t)pk_isqrt64(ss);
-    if (len == 0)
-        return;
-    for (unsigned a = 0; a < dims; a++)
-        t[a] = (pk_q30_t)pk_div_round64(v[a] * ((int64_t)1 << 30), len);
-}
-
-static int is_pow2(int32_t x, unsigned *s)
-{
-    for (unsigned k = 0; k < 31u; k++)
-        if (x == ((int32_t)1 << k)) {
-            *s = k;
-            return 1;
-        }
-    return 0;
-}
-
-/* Sum of mask m over the polygon at the front anchor. Left-end and uniform
- * masks index points from the anchor: back = lag - first - k. A right-end
- * (mirrored) mask for the anchor d places from the last one indexes the
- * reversed polygon, whose point j is the real point n-1-j, and at finish the
- * newest point is L(n-1): back = d + first + k. */
-static void apply_mask(const struct pk_limit_stage *ls, const struct pk_mask *m, int mirror_d,
-                       unsigned dims, int64_t *acc)
-{
-    for (unsigned a = 0; a < dims; a++)
-        acc[a] = 0;
-    for (unsigned k = 0; k < m->len; k++) {
-        int back = mirror_d >= 0 ? mirror_d + m->first + (int)k : ls->lag - m->first - (int)k;
-        const pk_w8_t *p = lim_at(ls, back);
-        for (unsigned a = 0; a < dims; a++)
-            acc[a] += (int64_t)m->w[k] * p[a];
-    }
+#if PK_LIMIT_TABLES
+    if (!is_chaikin(r))
+        tab_settle(r);
+#endif
 }
 
 void pk_limit_emit(struct pk_refine *r, struct pk_refine_out *out)
 {
-    struct pk_limit_stage *ls = &r->lim;
-    unsigned dims = r->cfg.dims;
-    int64_t acc[PK_AXES];
-
-    if (!r->cfg.closed && lim_fin(ls) && ls->n <= 2u) {
-        /* 1 point: itself; 2 points: the straight stroke, tangent along it */
-        const pk_w8_t *p = lim_at(ls, (int)ls->n - 1 - (int)ls->a);
-        for (unsigned a = 0; a < dims; a++) {
-            out->p[a] = pk_rshift_round32(p[a], PK_W8_SHIFT);
-            acc[a] = ls->n == 2u ? (int64_t)lim_at(ls, 0)[a] - lim_at(ls, 1)[a] : 0;
-        }
-        if (r->cfg.tangents)
-            pk_unit_q30(acc, dims, out->t);
-        lim_advance(ls);
+#if PK_LIMIT_TABLES
+    if (!is_chaikin(r)) {
+        tab_emit(r, out);
         return;
     }
-
-    struct anchor_masks am;
-    anchor_masks_of(r, &am);
-    int md = am.mirror ? lim_remaining(r) - 1 : -1;
-    apply_mask(ls, am.pos, md, dims, acc);
-    unsigned s;
-    if (is_pow2(am.pos->den, &s)) {
-        for (unsigned a = 0; a < dims; a++)
-            out->p[a] = (pk_um_t)pk_rshift_round64(acc[a], s + PK_W8_SHIFT);
-    } else {
-        int64_t den = (int64_t)am.pos->den << PK_W8_SHIFT;
-        for (unsigned a = 0; a < dims; a++)
-            out->p[a] = (pk_um_t)pk_div_round64(acc[a], den);
-    }
-    if (r->cfg.tangents && am.tan != NULL) {
-        apply_mask(ls, am.tan, md, dims, acc);
-        if (md >= 0)
-            for (unsigned a = 0; a < dims; a++)
-                acc[a] = -acc[a];
-        pk_unit_q30(acc, dims, out->t);
-    }
-    lim_advance(ls);
-    lim_settle(r);
+#endif
+    ch_emit(r, out);
 }
+
+#endif /* PK_BUILD_LIMIT */

@@ -57,8 +57,9 @@
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
  *
- * Weight bounds: every |w| < 2^31 and sum |w| <= PK_MASK_ABS_SUM_MAX, so a
- * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
+ * Weight bounds: every |w| < 2^31 and sum |w| <= PK_MASK_ABS_SUM_MAX. The
+ * kernel applies the masks to exact level-K points (pk_umf_t, N / 2^F) and
+ * drops fraction bits first only where the sum could leave int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
  * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
@@ -161,6 +162,7 @@
 #define PLOTKIN_PK_MASKS_H
 
 #include <stdint.h>
+#include "pk_rom.h"
 
 /** Most weights in one mask. */
 #define PK_MASK_MAXLEN 8
@@ -169,24 +171,28 @@
 /** Denominator of the irrational (rounded) tangent masks. */
 #define PK_MASK_Q24 (1L << 24)
 
-/** One mask: value = sum_r w[r] * L[anchor + first + r] / den. */
+/** One mask, as read from the tables: value = sum_r w(r) * L[anchor + first + r] / den. */
 struct pk_mask {
     int8_t first;              /**< index of w[0] relative to the anchor (e.g. -1) */
-    uint8_t len;               /**< number of weights used (0: undefined tangent: output zero) */
+    uint8_t len;               /**< number of weights (0: undefined tangent: output zero) */
     int32_t den;               /**< > 0. Position masks: exact, sum w = den. Tangent masks:
                                     direction only (sum w = 0); den is the exact rational's
                                     denominator, or 1<<24 if irrational (w rounded) */
-    int32_t w[PK_MASK_MAXLEN];
+    const int32_t *w;          /**< the len weights, in program memory: read with pk_mask_w */
 };
 
-/** Limit rule of one scheme/degree/closed/ends combination. */
-struct pk_limit_rule {
+/** Weight k of mask m. */
+static inline int32_t pk_mask_w(const struct pk_mask *m, unsigned k)
+{
+    return PK_ROM_I32(&m->w[k]);
+}
+
+/** The fixed part of a limit rule. */
+struct pk_rule_info {
     uint8_t edge_anchors;      /**< 1: anchors are edges (even D), 0: vertices */
-    uint8_t nend;              /**< anchors 0..nend-1 from each end use pos_end/tan_end */
+    uint8_t nend;              /**< anchors 0..nend-1 from each end use their own masks */
     uint8_t drop_mask;         /**< bit a set: end anchor a (from either end) is dropped (duplicate limit point) */
     uint8_t min_n;             /**< smallest polygon size for which uniform + end masks are valid without overlap */
-    struct pk_mask pos_uniform, tan_uniform;
-    struct pk_mask pos_end[4], tan_end[4];   /**< left end; the right end is the mirror image */
 };
 
 /**
@@ -195,21 +201,33 @@ struct pk_limit_rule {
  * closed ignores ends. Closed rules have nend 0 and min_n 1: apply the
  * uniform masks at every anchor with indices taken modulo n (weights of a
  * stencil wider than n wrap more than once).
- * @return the rule, or NULL if that combination does not exist.
+ * @return the rule (an opaque table in program memory), or NULL if that
+ *         combination does not exist or is not built (PK_BUILD_*).
  * Calling context: any (pure table lookup).
  */
-const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
+const int32_t *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
+
+/** The rule's fixed part. */
+void pk_limit_rule_info(const int32_t *rule, struct pk_rule_info *info);
 
 /**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
- * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
- * where the polygon's end points are the outputs) are output positions in
- * polygon order; call for every slot and emit the non-NULL ones in order.
- * first is relative to the slot.
+ * Mask `which` of a rule: 0 uniform position, 1 uniform tangent, 2 + a the
+ * position mask of end anchor a (a < 4; the left end, the right end is its
+ * mirror image), 6 + a its tangent mask.
+ */
+void pk_limit_rule_mask(const int32_t *rule, unsigned which, struct pk_mask *m);
+
+/**
+ * Masks for a short open polygon, n < min_n. Slots 0..A-1 (A = the anchor
+ * count: n vertices, or n-1 edges for even D; but A = n when n <= 2, where
+ * the polygon's end points are the outputs) are output positions in polygon
+ * order; call for every slot and emit the ones that exist in order. first
+ * is relative to the slot.
  * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
- * @return the mask, or NULL: slot dropped / not derived.
+ * @return 1 with *m filled, or 0: slot dropped / not derived / not built.
  * Calling context: any (pure table lookup).
  */
-const struct pk_mask *pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n, unsigned anchor, unsigned tangent);
+int pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n, unsigned anchor,
+                       unsigned tangent, struct pk_mask *m);
 
 #endif

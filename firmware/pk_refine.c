@@ -1,500 +1,144 @@
 /*
- * pk_refine.c — the streaming subdivision kernel.
+ * pk_refine.c — the streaming subdivision kernel: configuration, the input
+ * stream, and the pull loop that joins an engine to the output.
  *
  * WHY IT IS BUILT THIS WAY
  * ========================
- * A plotter's sender streams G-code line by line; a microcontroller cannot hold
- * the polyline, let alone 2^8 times its length. So the kernel is a cascade of
- * small, identical stages, one per level of refinement, each holding only the
- * last few points of its own input (a "window"), and it is driven from the
- * OUTPUT end: asking the last stage for a point makes it ask the stage above
- * only when it has nothing left to give. Work happens only when a point is
- * pulled, and a consumer that stops pulling (full motion queue) leaves every
- * stage exactly where it was. Nothing is buffered beyond the windows, so the
- * state is O(depth) and the per-point cost is O(depth) worst case, O(1)
- * amortised (a level-k point costs one mask evaluation; there are 2^(k-K) of
- * them per output point, summing to < 2).
+ * A plotter's sender streams G-code line by line; a microcontroller cannot
+ * hold the polyline, let alone 2^8 times its length. So the kernel is driven
+ * from the OUTPUT end: asking for a point does exactly the work that point
+ * needs, with state of a few input points plus a few numbers per axis. A
+ * consumer that stops pulling (full motion queue) leaves everything where it
+ * was; a push only stores the point in a one-point slot.
  *
- *     push -> [slot] -> [level 0] -> [level 1] -> ... -> [level K-1] -> [limit] -> pull
- *                        window       window               window        window
+ * Closed form instead of a cascade. K levels of a stationary B-spline scheme
+ * are one linear map: every level-K point is a fixed combination of D + 1
+ * consecutive input points (D = degree). Group the level-K points by the
+ * span of the B-spline curve their knots fall in — with n = 2^K they come in
+ * runs of n, output j in span s = j / n — and inside one span the weights are
+ * polynomials of degree D in j (the refined control points are the curve
+ * segment's blossom evaluated at D consecutive fine knots, and the blossom is
+ * multi-affine). So the D-th forward difference of the output sequence is
+ * constant within a span, and a span's n points cost D additions per axis
+ * each: keep V = the next point and its differences Δ^1 V .. Δ^D V, emit V,
+ * then V += Δ^1, Δ^1 += Δ^2, ... This is pk_refine_span.c.
  *
- * Lookahead. Open curves treat their last span differently (a clamped spline
- * ends on the last point; the replace rule swaps in the last point; a 2-point
- * stroke stays straight), so a stage must know whether its newest input is
- * the last one before it may release that span. It needs no storage for that:
- * the stage above either has a point ready (so more follows), or is finished
- * and drained (so this was the last), or must first be run — which the pull
- * loop below does. A stage in that state is "deferred".
+ * Better still, the polynomial of span s is valid a further D points into
+ * span s + 1 (those points' knots still touch span s), so when a span ends,
+ * V .. Δ^(D-1) already hold the right values for the next span and only
+ * Δ^D changes: to the D-th difference of the next span's D + 1 input points,
+ * times a constant. The constants (tables in pk_refine_span.c) are small
+ * integers that do not depend on the depth; only the stroke's first state
+ * and the D - 1 end points of a clamped stroke need depth-dependent weights,
+ * products of n = 2^K, i.e. shifts. Clamped ends are just spans whose knots
+ * are clamped, so they run through the same loop with their own Δ^D. Per
+ * interior output point that is D adds per axis and one rounding, and the
+ * block pull's inner loop (pk_refine_pull_block) is nothing else: for
+ * Chaikin with 32-bit values it even runs four points at once in SIMD lanes,
+ * each lane stepping by the 4-step differences, exact integers as well.
+ *
+ * Where the closed form is not used: the replace end rule of degrees 2..3
+ * (it overwrites each level's end point, which is not a polynomial in j),
+ * DLG (interpolating, not piecewise polynomial) and degrees >= 4 (not worth
+ * their tables) run through pk_refine_cascade.c: the classic cascade of
+ * one small window per level, pulled from the output end, now with exact
+ * values. Depth 0 passes the input through.
+ *
+ * Exactness. Every level-K point of every scheme here is a dyadic rational:
+ * each level's masks have power-of-two denominators (2^D for Lane-
+ * Riesenfeld, 4 for Chaikin's clamped end, 16 for the clamped cubic's and
+ * DLG's). The kernel carries N = point * 2^F exactly in pk_umf_t (F = D*K,
+ * 3K + 1 for the clamped cubic, 4K for DLG) and rounds once, at the output,
+ * to the nearest micrometre with ties away from zero. Forward differences
+ * are integer combinations of such N, so they are exact integers too: the
+ * closed form computes precisely the same rationals as refining level by
+ * level, and nothing accumulates. The output is the exactly rounded rational:
+ * error <= 0.5 LSB, tested against an exact 128-bit model of the
+ * specification (tests/test_kernel_exact.c). The limit stage applies its
+ * masks to the same exact values and rounds once; tangents are taken from
+ * the exact polygon too, so tiny level-K edges no longer lose their
+ * direction to rounding (the old kernel's 1.4 degrees on dense input).
+ * Ties-away-from-zero is odd-symmetric, so negating a coordinate of the input
+ * negates the output bit for bit; the masks are palindromic and the end rules
+ * mirror each other, so reversing the input reverses the output.
+ *
+ * Why correctly rounded rather than the old kernel's bits: the kernel this
+ * replaced rounded every level to 1/256 µm, so its outputs depended on the
+ * order of the cascade's roundings, which a closed form does not perform;
+ * reproducing them would have meant keeping the cascade. The rational result
+ * is the specification (the team's exact vectors are computed from it), and
+ * rounding it once is both cheaper and better: 0.5 LSB instead of 0.5 +
+ * depth/512, and identical to the old bits wherever the old kernel rounded
+ * only once (Chaikin to depth 4, the cubic to depth 2: checked against the
+ * frozen old kernel in tests/ref). The one-point pull's protocol, counts,
+ * closed-curve rotation and release bound are unchanged.
+ *
+ * Builds. Everything above is selected at compile time (PK_BUILD_* in
+ * pk_refine.h); pk_refine_init refuses what a build lacks with PK_ENOTSUP
+ * and references nothing it does not carry (the limit tables only with the
+ * limit stage and a scheme that needs them). A build of Chaikin with clamped
+ * ends only is pk_refine_chaikin.c alone: the same closed form written out
+ * for D = 2 (each span's Δ² with the clamped end weights, framed by the
+ * stroke's end points) and a limit stage without tables (the quadratic
+ * limit points are edge midpoints and the two end points; its tangents are
+ * edge directions), about 2 KB on a Cortex-M0+.
+ *
+ * Ranges. |input| <= PK_UM_MAX = 2^21 - 1 µm. B-spline points are convex
+ * combinations, so |N| < 2^(21 + F); F <= 25 for the span engine (the clamped
+ * cubic at depth 8), so N, and its differences (bounded by (K + 2) bits more
+ * than the input differences times n^(D-1)), fit int64 with room to spare; a
+ * Chaikin-only build with PK_MAX_DEPTH <= 5 has F <= 10 and fits int32
+ * (PK_UMF_BITS). The cascade needs F = D*K bits: up to 42 fits int64 (degree
+ * 5 at depth 8 needs 40, DLG 32 plus its 1.26 overshoot); degree 6 at depth 8
+ * and degree 7 at depth 7..8 would need more, so their last levels keep 42 - D
+ * fraction bits (rounded, error below 2^-34 LSB). Mask sums are formed before
+ * any division and never exceed 2^62.
  *
  * Closed curves. Every closed scheme here is stationary and local, so the
- * closed level-K polygon is a window of the open ("interior rule") refinement
+ * closed level-K polygon is a window of the open ("no end rule") refinement
  * of the periodic sequence P0..Pm-1, P0, P1, ..., Pc-1 (c = the rule's reach,
- * plus the limit stencil's). The kernel keeps the stroke's first c points (not
- * per level: once), replays them after the last point, and stops after
- * exactly 2^K * m outputs. The outputs are those of the closed scheme, rotated
- * to start where the first full stencil lies (for Chaikin that is Q0, as in
- * the usual statement of the scheme).
- *
- * Exactness. Points travel as pk_w8_t (µm in Q.8). Each output of a level is a
- * mask sum formed EXACTLY in integers, then divided by the mask's power of two
- * with a single round-to-nearest (ties away from zero) at 1/256 µm; the final
- * output is rounded once more to whole µm. The guard bits keep the level-wise
- * rounding far below the output LSB: with per-level error e_k <= 2^-9 µm and
- * every B-spline mask a convex combination (norm 1), the output is within
- * 0.5 + K * 2^-9 µm of the exact rational value (DLG's masks have norm 5/4
- * per level: 0.5 + 2^-9 * sum (5/4)^j, still < 0.6 µm at K = 8). For Chaikin
- * up to depth 4 and the cubic up to depth 2 all intermediate values are exact
- * (2 and 3 fractional bits per level fit in 8), so the output is the exactly
- * rounded rational: rounding happens once.
- * Ties-away-from-zero is odd-symmetric, so negating any coordinate of the
- * input negates the output bit for bit; the masks are palindromic and the end
- * rules mirror each other, so reversing the input reverses the output.
- *
- * Ranges. |input| <= PK_UM_MAX = 2^21 - 1 µm, so |w8| < 2^29. B-spline
- * masks are convex combinations, so every level stays inside that range; the
- * Chaikin fast path forms 3a + b in int32 (|3a + b| < 4 * 2^29 = 2^31), every
- * other mask sum is formed in int64. DLG overshoots the input hull: the
- * infinity norm of its composite subdivision matrix, computed exactly for
- * open (ghost points) and closed polygons of 3..8 points over 1..8 levels,
- * never exceeds 1.2517, so its values stay below 1.26 * 2^29 — inside int32
- * with room to spare — and its rounding error grows by at most that factor.
+ * plus the limit stencil's). The kernel keeps the stroke's first c points
+ * (once), replays them after the last point, and stops after exactly 2^K * m
+ * outputs, starting where the first full stencil lies (for Chaikin Q0).
  */
 #include "pk_refine.h"
 #include "pk_refine_internal.h"
 
 #include <stddef.h>
 
-/* What each level does (chosen at init from scheme, degree, closed, ends). */
-enum lv_kind {
-    K_LR_INTERIOR,   /* B-spline, no end rule, no deferral (closed curves) */
-    K_LR_NONE,       /* B-spline, open, end rule "none" */
-    K_LR_REPLACE,    /* B-spline, open, end rule "replace" */
-    K_CH_CLAMPED,    /* Chaikin, open, clamped (default) */
-    K_CUBIC_CLAMPED, /* cubic B-spline, open, clamped */
-    K_DLG_OPEN,      /* DLG with ghost points */
-    K_DLG_INTERIOR   /* DLG on the periodic sequence (closed) */
-};
+#if !PK_CHAIKIN_ONLY /* else pk_refine_chaikin.c is the kernel */
 
-/* Lane-Riesenfeld masks: output j uses P[floor(j/2) + r], r = 0..len-1, with
- * weights lr_w[D][j & 1][r] summing to 2^D. Derived from binomial(D, t)
- * applied to the split sequence s[2i] = s[2i+1] = P[i]. */
-static const uint8_t lr_w[8][2][5] = {
-    { { 1 }, { 1 } },                                   /* unused (D = 0) */
-    { { 2, 0 }, { 1, 1 } },                             /* D=1: P, mid */
-    { { 3, 1 }, { 1, 3 } },                             /* D=2: Q, R (Chaikin) */
-    { { 4, 4, 0 }, { 1, 6, 1 } },                       /* D=3: edge, vertex */
-    { { 5, 10, 1 }, { 1, 10, 5 } },                     /* D=4 */
-    { { 6, 20, 6, 0 }, { 1, 15, 15, 1 } },              /* D=5 */
-    { { 7, 35, 21, 1 }, { 1, 21, 35, 7 } },             /* D=6 */
-    { { 8, 56, 56, 8, 0 }, { 1, 28, 70, 28, 1 } },      /* D=7 */
-};
+_Static_assert((-3 >> 1) == -2, "the kernel needs arithmetic right shifts of negative values");
 
-/* Window a degree-D level needs: ceil(D/2) + 1 points (DLG and the clamped
- * cubic: 4). */
-static unsigned lr_window(unsigned D) { return (D + 1u) / 2u + 1u; }
+/* ---- configuration -------------------------------------------------------- */
 
-static int32_t sat_inc8(uint8_t n) { return n < 255u ? n + 1 : 255; }
-
-/* ---- small vector helpers (dims = r->cfg.dims) --------------------------- */
-
-static void pt_copy(pk_w8_t *dst, const pk_w8_t *src, unsigned dims)
+static int built(const struct pk_refine *r)
 {
-    dst[0] = src[0];
-    dst[1] = src[1];
-#if PK_AXES > 2
-    if (dims > 2u)
-        dst[2] = src[2];
-#else
-    (void)dims;
-#endif
-}
-
-/* Point P_x where x = (newest index) - back; back = 0 is the newest input. */
-static const pk_w8_t *lv_at(const struct pk_level *lv, unsigned back)
-{
-    return lv->w[PK_WIN - 1u - back];
-}
-
-/* out = round(sum_r w[r] * P(back0 - r)) / 2^s), back0 = how far back the
- * first weight's point is. Weights are signed. Sums in int64. */
-static void lv_mask(const struct pk_level *lv, unsigned dims, unsigned back0, const int8_t *w,
-                    unsigned len, unsigned s, pk_w8_t *out)
-{
-    for (unsigned a = 0; a < dims; a++) {
-        int64_t acc = 0;
-        for (unsigned r = 0; r < len; r++)
-            acc += (int64_t)w[r] * lv_at(lv, back0 - r)[a];
-        out[a] = (pk_w8_t)pk_rshift_round64(acc, s);
-    }
-}
-
-/* Two-point combinations in int32 — the Chaikin fast path. The weights are
- * 1 or 3, formed by additions (no multiply: an AVR has no 32-bit multiplier,
- * and the helper call cost a fifth of its cycles). |A|,|B| < 2^29 keeps the
- * sums below 2^31. */
-static int32_t sum31(int32_t a, int32_t b) { return a + a + a + b; }
-
-static void mix_q(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
-{
-    for (unsigned a = 0; a < dims; a++)
-        out[a] = pk_rshift_round32(sum31(A[a], B[a]), 2);
-}
-static void mix_r(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
-{
-    for (unsigned a = 0; a < dims; a++)
-        out[a] = pk_rshift_round32(sum31(B[a], A[a]), 2);
-}
-static void mix_mid(const pk_w8_t *A, const pk_w8_t *B, unsigned dims, pk_w8_t *out)
-{
-    for (unsigned a = 0; a < dims; a++)
-        out[a] = pk_rshift_round32(A[a] + B[a], 1);
-}
-
-/* ---- level: feed ------------------------------------------------------- */
-
-/* Outputs released by LR after input i (0-based): j in [max(0,2i-D), 2i+1-D]. */
-static unsigned lr_batch(unsigned D, uint32_t n)
-{
-    int32_t i = (int32_t)n - 1;
-    int32_t hi = 2 * i + 1 - (int32_t)D;
-    int32_t lo = 2 * i - (int32_t)D;
-    if (lo < 0)
-        lo = 0;
-    return hi < 0 ? 0u : (unsigned)(hi - lo + 1);
-}
-
-static void lv_feed(const struct pk_refine *r, struct pk_level *lv, unsigned kind,
-                    const pk_w8_t *p)
-{
-    unsigned dims = r->cfg.dims;
-    for (unsigned k = PK_WIN - r->win; k + 1u < PK_WIN; k++)
-        pt_copy(lv->w[k], lv->w[k + 1u], dims);
-    pt_copy(lv->w[PK_WIN - 1u], p, dims);
-    lv->n = (uint8_t)sat_inc8(lv->n);
-    lv->ph = 0;
-    unsigned n = lv->n;
-
-    switch (kind) {
-    case K_LR_INTERIOR:
-        lv->pend = (uint8_t)lr_batch(r->D, n);
-        break;
-    case K_LR_NONE:
-    case K_LR_REPLACE:
-        lv->pend = (uint8_t)lr_batch(r->D, n);
-        lv->st |= LV_DEFER; /* last span and the 2-point rule need lookahead */
-        break;
-    case K_CH_CLAMPED:
-        lv->pend = n == 1u ? 1u : 0u; /* P0 now; each later edge waits */
-        if (n >= 2u)
-            lv->st |= LV_DEFER;
-        break;
-    case K_CUBIC_CLAMPED:
-        lv->pend = n == 1u ? 1u : 0u;
-        if (n >= 2u)
-            lv->st |= LV_DEFER;
-        break;
-    case K_DLG_OPEN:
-        lv->pend = n == 1u ? 1u : n == 2u ? 0u : 2u;
-        break;
-    case K_DLG_INTERIOR:
-        lv->pend = n < 3u ? 0u : n == 3u ? 1u : 2u;
-        break;
-    default:
-        break;
-    }
-    /* A deferred level with nothing held has nothing to decide. */
-    if ((lv->st & LV_DEFER) && kind != K_CH_CLAMPED && kind != K_CUBIC_CLAMPED && lv->pend == 0u)
-        lv->st &= (uint8_t)~LV_DEFER;
-}
-
-/* More input follows: release the held batch (its "not last" form). */
-static void lv_more(const struct pk_refine *r, struct pk_level *lv, unsigned kind)
-{
-    (void)r;
-    lv->st &= (uint8_t)~LV_DEFER;
-    unsigned n = lv->n;
-    switch (kind) {
-    case K_CH_CLAMPED:
-        lv->pend = n == 2u ? 1u : 2u; /* M0, or Qi Ri */
-        break;
-    case K_CUBIC_CLAMPED:
-        lv->pend = n == 2u ? 1u : n == 3u ? 0u : n == 4u ? 1u : 2u;
-        break;
-    default: /* LR none/replace: the batch computed at feed */
-        break;
-    }
-}
-
-/* No more input: the current batch becomes the tail. */
-static void lv_finish(const struct pk_refine *r, struct pk_level *lv, unsigned kind)
-{
-    unsigned n = lv->n;
-    lv->st = (uint8_t)((lv->st & (uint8_t)~LV_DEFER) | LV_FIN);
-    lv->ph = 0;
-    switch (kind) {
-    case K_LR_INTERIOR:
-    case K_DLG_INTERIOR:
-        lv->pend = 0;
-        break;
-    case K_LR_NONE:
-    case K_LR_REPLACE:
-        if (n <= 2u) {
-            /* 0 -> nothing, 1 -> P0, 2 -> P0 P1 (minus what is already out) */
-            lv->pend = (uint8_t)(n - ((lv->st & LV_E0) && n > 0u ? 1u : 0u));
-        } else if (kind == K_LR_REPLACE && 2 * (int32_t)n - (int32_t)r->D < 2) {
-            lv->pend = 2; /* too short: just P0, Pm-1 */
-        } else {
-            lv->pend = (uint8_t)lr_batch(r->D, n);
-        }
-        break;
-    case K_CH_CLAMPED:
-        lv->pend = n == 0u ? 0u : n == 1u ? 0u : n == 2u ? 1u : 2u;
-        break;
-    case K_CUBIC_CLAMPED:
-        lv->pend = n <= 1u ? 0u : n == 2u ? 1u : n == 3u ? 2u : n == 4u ? 3u : 4u;
-        break;
-    case K_DLG_OPEN:
-        lv->pend = n <= 1u ? 0u : n == 2u ? 1u : 2u;
-        break;
-    default:
-        break;
-    }
-}
-
-/* ---- level: emit ------------------------------------------------------- */
-
-/* Offset, relative to the newest input, of output ph of the current LR batch:
- * returns "back" of the mask's first point and the parity of j. */
-static void lr_locate(unsigned D, uint32_t n, unsigned ph, unsigned *back0, unsigned *odd)
-{
-    int32_t i = (int32_t)n - 1;
-    int32_t lo = 2 * i - (int32_t)D;
-    if (lo < 0)
-        lo = 0;
-    int32_t j = lo + (int32_t)ph;
-    *odd = (unsigned)(j & 1);
-    *back0 = (unsigned)(i - (j >> 1)); /* j >= 0 */
-}
-
-static void lr_eval(const struct pk_refine *r, const struct pk_level *lv, unsigned back0,
-                    unsigned odd, pk_w8_t *out)
-{
-    unsigned D = r->D, dims = r->cfg.dims;
-    if (D == 2u) { /* Chaikin fast path */
-        const pk_w8_t *A = lv_at(lv, back0), *B = lv_at(lv, back0 - 1u);
-        if (odd)
-            mix_r(A, B, dims, out);
-        else
-            mix_q(A, B, dims, out);
-        return;
-    }
-    int8_t w[5];
-    unsigned len = 0;
-    for (unsigned t = 0; t < 5u; t++)
-        if ((w[t] = (int8_t)lr_w[D][odd][t]) != 0)
-            len = t + 1u;
-    /* the first weight may be 0 only for D = 1 odd ... keep simple: all from t=0 */
-    lv_mask(lv, dims, back0, w, len, D, out);
-}
-
-static void emit_lr(const struct pk_refine *r, struct pk_level *lv, unsigned kind, pk_w8_t *out)
-{
-    unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
-    if (lv->st & LV_FIN) {
-        if (n <= 2u) { /* as is: the last `pend` inputs, oldest first */
-            pt_copy(out, lv_at(lv, lv->pend - 1u - ph), dims);
-            return;
-        }
-        if (kind == K_LR_REPLACE) {
-            if (2 * (int32_t)n - (int32_t)r->D < 2) { /* P0, Pm-1 */
-                pt_copy(out, lv_at(lv, ph == 0u ? n - 1u : 0u), dims);
-                return;
-            }
-            if (ph + 1u == lv->pend) { /* the level's last point */
-                pt_copy(out, lv_at(lv, 0), dims);
-                return;
-            }
-        }
-    }
-    unsigned back0, odd;
-    lr_locate(r->D, n, ph, &back0, &odd);
-    if (kind == K_LR_REPLACE && back0 == n - 1u && !odd && (lv->st & LV_E0) == 0u) {
-        pt_copy(out, lv_at(lv, n - 1u), dims); /* output 0 is P0 */
-        return;
-    }
-    lr_eval(r, lv, back0, odd, out);
-}
-
-static void emit_ch_clamped(const struct pk_refine *r, struct pk_level *lv, pk_w8_t *out)
-{
-    unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
-    const pk_w8_t *A = lv_at(lv, 1), *B = lv_at(lv, 0); /* the newest edge */
-    if (n == 1u) {
-        pt_copy(out, B, dims); /* P0 */
-    } else if (lv->st & LV_FIN) {
-        if (n == 2u || ph == 1u)
-            pt_copy(out, B, dims); /* Pm-1 */
-        else
-            mix_mid(A, B, dims, out); /* M(m-2) */
-    } else if (n == 2u) {
-        mix_mid(A, B, dims, out); /* M0 */
+    const struct pk_refine_cfg *c = &r->cfg;
+    if (c->scheme == PK_SCHEME_DLG) {
+        if (!PK_BUILD_DLG)
+            return 0;
     } else {
-        if (ph)
-            mix_r(A, B, dims, out); /* Ri */
-        else
-            mix_q(A, B, dims, out); /* Qi */
+        if (((unsigned)PK_BUILD_DEGREES & (1u << r->D)) == 0u)
+            return 0;
+        if (!c->closed && ((unsigned)PK_BUILD_ENDS & (1u << r->ends)) == 0u)
+            return 0;
     }
+    if (c->closed && !PK_BUILD_CLOSED)
+        return 0;
+    if (c->limit && !PK_BUILD_LIMIT)
+        return 0;
+    return 1;
 }
 
-/* Clamped cubic (knot insertion of the open-uniform cubic B-spline):
- *   P0 | E01 | T12 | V2 E23 | V3 E34 | ... | V(m-3) | T'(m-3,m-2) | E(m-2,m-1) | Pm-1
- * with T12 = (3P1+P2)/4, T' its mirror, Vi = (1,6,1)/8 except next to the
- * ends: (3,11,2)/16 for V2, (2,11,3)/16 for V(m-3), (3,10,3)/16 if both.
- * m = 3 falls back to the clamped quadratic, m = 4 is the Bezier split. */
-static void emit_cubic_clamped(const struct pk_refine *r, struct pk_level *lv, pk_w8_t *out)
+static unsigned engine_of(const struct pk_refine *r)
 {
-    if (PK_WIN < 4) /* never reached: init refuses the scheme in such a build */
-        return;
-    unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
-    int fin = (lv->st & LV_FIN) != 0;
-    if (n == 1u) {
-        pt_copy(out, lv_at(lv, 0), dims);
-        return;
-    }
-    if (n == 2u) { /* more: E01; last: P1 */
-        if (fin)
-            pt_copy(out, lv_at(lv, 0), dims);
-        else
-            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
-        return;
-    }
-    if (n == 3u) { /* only on finish: M1, P2 */
-        if (ph == 0u)
-            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
-        else
-            pt_copy(out, lv_at(lv, 0), dims);
-        return;
-    }
-    if (n == 4u) {
-        if (!fin) { /* T12 */
-            mix_q(lv_at(lv, 2), lv_at(lv, 1), dims, out);
-        } else if (ph == 0u) { /* E12 */
-            mix_mid(lv_at(lv, 2), lv_at(lv, 1), dims, out);
-        } else if (ph == 1u) { /* E23 */
-            mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
-        } else {
-            pt_copy(out, lv_at(lv, 0), dims);
-        }
-        return;
-    }
-    /* n = i + 3 >= 5: window P(i-1), P(i), P(i+1), P(i+2) at back 3..0 */
-    if (ph == 0u) {
-        int8_t w[3];
-        w[0] = (int8_t)(2 + (n == 5u ? 1 : 0));
-        w[2] = (int8_t)(2 + (fin ? 1 : 0));
-        w[1] = (int8_t)(16 - w[0] - w[2]);
-        lv_mask(lv, dims, 3, w, 3, 4, out);
-    } else if (!fin) { /* E(i, i+1) */
-        mix_mid(lv_at(lv, 2), lv_at(lv, 1), dims, out);
-    } else if (ph == 1u) { /* T'(i, i+1) */
-        mix_r(lv_at(lv, 2), lv_at(lv, 1), dims, out);
-    } else if (ph == 2u) { /* E(i+1, i+2) */
-        mix_mid(lv_at(lv, 1), lv_at(lv, 0), dims, out);
-    } else {
-        pt_copy(out, lv_at(lv, 0), dims);
-    }
-}
-
-static const int8_t dlg_mid[4] = { -1, 9, 9, -1 };
-static const int8_t dlg_left[3] = { 7, 10, -1 };  /* ghost P-1 = 2P0 - P1 */
-static const int8_t dlg_right[3] = { -1, 10, 7 }; /* ghost Pm = 2Pm-1 - Pm-2 */
-
-static void emit_dlg(const struct pk_refine *r, struct pk_level *lv, unsigned kind, pk_w8_t *out)
-{
-    if (PK_WIN < 4) /* never reached: init refuses the scheme in such a build */
-        return;
-    unsigned dims = r->cfg.dims, n = lv->n, ph = lv->ph;
-    if (kind == K_DLG_OPEN) {
-        if (n == 1u) {
-            pt_copy(out, lv_at(lv, 0), dims);
-        } else if (lv->st & LV_FIN) {
-            if (n == 2u || ph == 1u)
-                pt_copy(out, lv_at(lv, 0), dims);
-            else
-                lv_mask(lv, dims, 2, dlg_right, 3, 4, out); /* mid(m-2, m-1) */
-        } else if (ph == 1u) {
-            pt_copy(out, lv_at(lv, 1), dims); /* the old point P(n-2) */
-        } else if (n == 3u) {
-            lv_mask(lv, dims, 2, dlg_left, 3, 4, out); /* mid(0, 1) */
-        } else {
-            lv_mask(lv, dims, 3, dlg_mid, 4, 4, out);
-        }
-        return;
-    }
-    /* interior: n = 3 -> P1; n >= 4 -> mid(n-3, n-2), P(n-2) */
-    if (n == 3u || ph == 1u)
-        pt_copy(out, lv_at(lv, 1), dims);
-    else
-        lv_mask(lv, dims, 3, dlg_mid, 4, 4, out);
-}
-
-static void lv_emit(const struct pk_refine *r, struct pk_level *lv, unsigned kind, pk_w8_t *out)
-{
-    switch (kind) {
-    case K_CH_CLAMPED:
-        emit_ch_clamped(r, lv, out);
-        break;
-    case K_CUBIC_CLAMPED:
-        emit_cubic_clamped(r, lv, out);
-        break;
-    case K_DLG_OPEN:
-    case K_DLG_INTERIOR:
-        emit_dlg(r, lv, kind, out);
-        break;
-    default:
-        emit_lr(r, lv, kind, out);
-        break;
-    }
-    lv->st |= LV_E0;
-    if (++lv->ph >= lv->pend) {
-        lv->pend = 0;
-        lv->ph = 0;
-    }
-}
-
-/* ---- the cascade ------------------------------------------------------- */
-
-static unsigned lv_kind_of(const struct pk_refine *r)
-{
-    if (r->cfg.scheme == PK_SCHEME_DLG)
-        return r->cfg.closed ? K_DLG_INTERIOR : K_DLG_OPEN;
-    if (r->cfg.closed)
-        return K_LR_INTERIOR;
-    switch (r->ends) {
-    case PK_ENDS_CLAMPED:
-        return r->D == 1u ? K_LR_NONE : r->D == 2u ? K_CH_CLAMPED : K_CUBIC_CLAMPED;
-    case PK_ENDS_REPLACE:
-        return K_LR_REPLACE;
-    default:
-        return K_LR_NONE;
-    }
-}
-
-/* How many of the stroke's first points a closed curve must replay: the
- * reach of the interior rule (D for B-splines, 5 for DLG) plus what the limit
- * stage's stencil needs beyond that. */
-static unsigned close_count(const struct pk_refine *r)
-{
-    return r->cfg.scheme == PK_SCHEME_DLG ? 5u : r->D < 2u ? 2u : r->D;
-}
-
-static unsigned needed_window(const struct pk_refine *r)
-{
-    if (r->cfg.scheme == PK_SCHEME_DLG)
-        return 4u;
-    if (!r->cfg.closed && r->ends == PK_ENDS_CLAMPED && r->D == 3u)
-        return 4u;
-    return lr_window(r->D);
+    if (r->cfg.depth == 0u)
+        return PK_ENG_PASS;
+    if (r->cfg.scheme == PK_SCHEME_BSPLINE && r->D <= 3u &&
+        (r->D == 1u || r->cfg.closed || r->ends != PK_ENDS_REPLACE))
+        return PK_ENG_SPAN;
+    return PK_ENG_CASCADE;
 }
 
 int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
@@ -512,7 +156,7 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
     if (c.tangents)
         c.limit = 1;
 
-    /* Zero everything: no stale window contents can ever leak into a mask. */
+    /* Zero everything: no stale state can leak into a stroke. */
     unsigned char *b = (unsigned char *)r;
     for (size_t i = 0; i < sizeof *r; i++)
         b[i] = 0;
@@ -526,16 +170,36 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
         r->ends = r->D <= 3u ? PK_ENDS_CLAMPED : PK_ENDS_REPLACE;
     if (c.scheme == PK_SCHEME_BSPLINE && r->ends == PK_ENDS_CLAMPED && r->D > 3u)
         return PK_ENOTSUP;
-    if (needed_window(r) > PK_WIN && c.depth > 0u)
+    if (!built(r))
         return PK_ENOTSUP;
-    r->close_c = (uint8_t)close_count(r);
+    r->close_c = (uint8_t)(c.scheme == PK_SCHEME_DLG ? 5u : r->D < 2u ? 2u : r->D);
     if (c.closed && r->close_c > PK_CLOSE_MAX)
         return PK_ENOTSUP;
+    r->engine = (uint8_t)engine_of(r);
+    switch (r->engine) {
+    case PK_ENG_PASS:
+        r->F = 0;
+        break;
+#if PK_HAVE_SPAN
+    case PK_ENG_SPAN:
+        pk_span_setup(r);
+        break;
+#endif
+#if PK_HAVE_CASCADE
+    case PK_ENG_CASCADE:
+        if (pk_cascade_setup(r) != PK_OK)
+            return PK_ENOTSUP;
+        break;
+#endif
+    default:
+        return PK_ENOTSUP; /* the engine this needs is not built */
+    }
+#if PK_BUILD_LIMIT
     if (c.limit && pk_limit_setup(r) != PK_OK)
         return PK_ENOTSUP;
-    r->nlev = (uint8_t)(c.depth + (c.limit ? 1u : 0u));
-    r->kind = (uint8_t)lv_kind_of(r);
-    r->win = (uint8_t)needed_window(r);
+#endif
+    r->half = r->F ? (pk_umf_t)1 << (r->F - 1u) : 0;
+    r->fast = (uint8_t)(r->engine == PK_ENG_SPAN && !c.limit);
     r->out_left = UINT32_MAX;
     return PK_OK;
 }
@@ -545,6 +209,8 @@ void pk_refine_reset(struct pk_refine *r)
     struct pk_refine_cfg c = r->cfg;
     (void)pk_refine_init(r, &c);
 }
+
+/* ---- the input stream ----------------------------------------------------- */
 
 int pk_refine_push(struct pk_refine *r, const pk_um_t p[PK_AXES])
 {
@@ -557,11 +223,15 @@ int pk_refine_push(struct pk_refine *r, const pk_um_t p[PK_AXES])
             return PK_ERANGE;
     if (r->cfg.closed && r->m >= PK_CLOSED_MAX_POINTS)
         return PK_ETOOLONG;
-    for (unsigned a = 0; a < r->cfg.dims; a++)
-        r->in[a] = p[a] * PK_W8_ONE_UM; /* exact: |p| < 2^21 */
+    for (unsigned a = 0; a < PK_AXES; a++)
+        r->in[a] = a < r->cfg.dims ? p[a] : 0;
+#if PK_BUILD_CLOSED
     if (r->cfg.closed && r->m < r->close_c)
-        pt_copy(r->first[r->m], r->in, r->cfg.dims);
-    r->m++;
+        for (unsigned a = 0; a < PK_AXES; a++)
+            r->first[r->m][a] = r->in[a];
+#endif
+    if (r->m < UINT32_MAX)
+        r->m++;
     r->in_full = 1;
     return PK_OK;
 }
@@ -577,138 +247,270 @@ void pk_refine_finish(struct pk_refine *r)
     }
 }
 
-/* Stage k (-1 = the input slot) has a point ready for stage k+1. */
-static int st_ready(const struct pk_refine *r, int k)
+int pk_in_ready(const struct pk_refine *r)
 {
-    if (k < 0)
-        return r->in_full || (r->finishing && r->cfg.closed && r->m >= 1u && r->close_i < r->close_c);
-    if ((unsigned)k == r->cfg.depth)
-        return pk_limit_ready(r);
-    const struct pk_level *lv = &r->lv[k];
-    return lv->pend != 0u && (lv->st & LV_DEFER) == 0u;
+    if (r->in_full)
+        return 1;
+#if PK_BUILD_CLOSED
+    return r->finishing && r->cfg.closed && r->m >= 1u && r->close_i < r->close_c;
+#else
+    return 0;
+#endif
 }
 
-/* Stage k is finished and has given everything. */
-static int st_exhausted(const struct pk_refine *r, int k)
+int pk_in_exhausted(const struct pk_refine *r)
 {
-    if (k < 0)
-        return r->finishing && !st_ready(r, -1);
-    if ((unsigned)k == r->cfg.depth)
-        return pk_limit_exhausted(r);
-    const struct pk_level *lv = &r->lv[k];
-    return (lv->st & LV_FIN) != 0u && lv->pend == 0u;
+    return r->finishing && !pk_in_ready(r);
 }
 
-static void st_take(struct pk_refine *r, int k, pk_w8_t *p)
+void pk_in_take(struct pk_refine *r, pk_um_t p[PK_AXES])
 {
-    if (k < 0) {
-        if (r->in_full) {
-            pt_copy(p, r->in, r->cfg.dims);
-            r->in_full = 0;
-        } else { /* closed: replay the first points, cyclically */
-            unsigned i = r->close_i++;
-            pt_copy(p, r->first[r->m < r->close_c ? i % r->m : i], r->cfg.dims);
+    const pk_um_t *src = r->in;
+    if (r->in_full) {
+        r->in_full = 0;
+    } else {
+#if PK_BUILD_CLOSED
+        unsigned i = r->close_i++; /* closed: replay the first points, cyclically */
+        src = r->first[r->m < r->close_c ? i % r->m : i];
+#endif
+    }
+    for (unsigned a = 0; a < PK_AXES; a++)
+        p[a] = src[a];
+    r->taken++; /* modulo 2^32: the span engine uses differences only */
+}
+
+/* ---- pulling -------------------------------------------------------------- */
+
+/* The next exact level-K point from whichever engine serves the stream. */
+static int source_next(struct pk_refine *r, pk_umf_t v[PK_AXES])
+{
+    switch (r->engine) {
+#if PK_HAVE_SPAN
+    case PK_ENG_SPAN:
+        return pk_span_next(r, v);
+#endif
+#if PK_HAVE_CASCADE
+    case PK_ENG_CASCADE:
+        return pk_cascade_next(r, v);
+#endif
+    default: {
+        if (!pk_in_ready(r))
+            return r->finishing ? PK_SRC_END : PK_SRC_NEED;
+        pk_um_t p[PK_AXES];
+        pk_in_take(r, p);
+        for (unsigned a = 0; a < PK_AXES; a++)
+            v[a] = p[a];
+        return PK_SRC_OK;
+    }
+    }
+}
+
+/* One point through the general path (limit stage, cascade, depth 0), or the
+ * status that stops the stream; never resets, so asking again after PK_END
+ * says PK_END again (pk_refine_pull_block relies on that). */
+static int pull_one(struct pk_refine *r, struct pk_refine_out *out)
+{
+    if (r->cfg.closed && r->out_left == 0u)
+        return PK_END;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        out->p[a] = 0;
+        out->t[a] = 0;
+    }
+#if PK_BUILD_LIMIT
+    if (r->cfg.limit) {
+        for (;;) {
+            if (pk_limit_ready(r)) {
+                pk_limit_emit(r, out);
+                break;
+            }
+            if (pk_limit_exhausted(r))
+                return PK_END;
+            pk_umf_t v[PK_AXES];
+            int st = source_next(r, v);
+            if (st == PK_SRC_OK)
+                pk_limit_feed(r, v);
+            else if (st == PK_SRC_END)
+                pk_limit_finish(r);
+            else
+                return PK_NEED_INPUT;
+        }
+    } else
+#endif
+    {
+        pk_umf_t v[PK_AXES];
+        int st = source_next(r, v);
+        if (st != PK_SRC_OK)
+            return st;
+        for (unsigned a = 0; a < r->cfg.dims; a++)
+            out->p[a] = pk_out_round(r, v[a]);
+    }
+    if (r->cfg.closed) {
+        r->out_done++;
+        r->out_left--;
+    }
+    return PK_OK;
+}
+
+#if PK_HAVE_SPAN
+/* The span engine's current run, one point: round, then step the forward
+ * differences (s[d] += s[d+1], lowest first, so each adds the old value).
+ * Straight-line code for the common cases: this is the motion core's loop. */
+static PK_INLINE void span_emit1(struct pk_refine *r, struct pk_refine_out *out)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned f = r->F;
+    const pk_umf_t half = r->half;
+    pk_umf_t(*s)[PK_AXES] = sp->s;
+#if PK_AXES == 2
+    const unsigned dims = 2;
+#else
+    const unsigned dims = r->cfg.dims;
+    out->p[2] = 0;
+    out->t[2] = 0;
+#endif
+    const unsigned D = PK_SPAN_ONE_D ? PK_SPAN_ONE_D : sp->D;
+    out->t[0] = 0;
+    out->t[1] = 0;
+#if defined(__AVR__)
+    /* one axis at a time: fewer registers to save on an 8-bit core */
+    for (unsigned a = 0; a < dims; a++) {
+        out->p[a] = pk_umf_round(s[0][a], f, half);
+        for (unsigned d = 0; d < D; d++)
+            s[d][a] += s[d + 1u][a];
+    }
+#else
+    out->p[0] = pk_umf_round(s[0][0], f, half);
+    out->p[1] = pk_umf_round(s[0][1], f, half);
+#if PK_SPAN_DMAX >= 2
+    if (D == 2u) {
+        s[0][0] += s[1][0];
+        s[1][0] += s[2][0];
+        s[0][1] += s[1][1];
+        s[1][1] += s[2][1];
+        if (dims > 2u) {
+            out->p[PK_AXES - 1] = pk_umf_round(s[0][PK_AXES - 1], f, half);
+            s[0][PK_AXES - 1] += s[1][PK_AXES - 1];
+            s[1][PK_AXES - 1] += s[2][PK_AXES - 1];
         }
         return;
     }
-    lv_emit(r, &r->lv[k], r->kind, p);
+#endif
+#if PK_SPAN_DMAX >= 3
+    if (D == 3u && dims == 2u) {
+        s[0][0] += s[1][0];
+        s[1][0] += s[2][0];
+        s[2][0] += s[3][0];
+        s[0][1] += s[1][1];
+        s[1][1] += s[2][1];
+        s[2][1] += s[3][1];
+        return;
+    }
+#endif
+    for (unsigned a = 2; a < dims; a++)
+        out->p[a] = pk_umf_round(s[0][a], f, half);
+    for (unsigned a = 0; a < dims; a++)
+        for (unsigned d = 0; d < D; d++)
+            s[d][a] += s[d + 1u][a];
+#endif
 }
 
-static void st_feed(struct pk_refine *r, int k, const pk_w8_t *p)
+/* Everything but the fast path's common case, out of line so that the fast
+ * path stays small. */
+PK_NOINLINE static int pull_more(struct pk_refine *r, struct pk_refine_out *out);
+#else
+#define pull_more pull_general
+#endif
+
+static int pull_general(struct pk_refine *r, struct pk_refine_out *out)
 {
-    if ((unsigned)k == r->cfg.depth)
-        pk_limit_feed(r, p);
-    else
-        lv_feed(r, &r->lv[k], r->kind, p);
+    int st = pull_one(r, out);
+    if (st == PK_END)
+        pk_refine_reset(r);
+    return st;
 }
 
-static void st_finish(struct pk_refine *r, int k)
+#if PK_HAVE_SPAN
+static int pull_more(struct pk_refine *r, struct pk_refine_out *out)
 {
-    if ((unsigned)k == r->cfg.depth)
-        pk_limit_finish(r);
-    else
-        lv_finish(r, &r->lv[k], r->kind);
+    if (!r->fast)
+        return pull_general(r, out);
+    int st = pk_span_refill(r);
+    if (st != PK_SRC_OK) {
+        if (st == PK_SRC_END)
+            pk_refine_reset(r);
+        return st;
+    }
+    r->e.sp.rem--;
+    span_emit1(r, out);
+    return PK_OK;
 }
-
-static int lv_ready(const struct pk_level *lv)
-{
-    return lv->pend != 0u && (lv->st & LV_DEFER) == 0u;
-}
+#endif
 
 int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
 {
-    const int top = (int)r->nlev - 1; /* -1: depth 0 without limit: pass through */
-
-    if (r->cfg.closed && r->out_left == 0u) {
-        pk_refine_reset(r);
-        return PK_END;
+#if PK_HAVE_SPAN
+    if (r->fast && r->e.sp.rem != 0u) {
+        r->e.sp.rem--;
+        span_emit1(r, out);
+        return PK_OK;
     }
-    /* Walk from the output end towards the input until some stage can act,
-     * then carry points back down. Each step moves one point one stage down,
-     * answers one stage's lookahead question, finishes one stage, or climbs
-     * one stage up: O(depth) steps per point delivered at worst, O(1) on
-     * average (the last level gives 2 points for each point it takes). */
-    const int lim = r->cfg.limit ? (int)r->cfg.depth : -2;
-    int k = top;
-    for (;;) {
-        int ready = (k >= 0 && k != lim) ? lv_ready(&r->lv[k]) : st_ready(r, k);
-        if (ready) {
-            if (k == top)
+#endif
+    return pull_more(r, out);
+}
+
+int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
+                         uint32_t *got)
+{
+    uint32_t k = 0;
+    int st = PK_OK;
+    const unsigned dims = r->cfg.dims;
+    *got = 0;
+    if (max_points == 0u)
+        return PK_OK;
+#if PK_HAVE_SPAN
+    if (r->fast) {
+        while (k < max_points) {
+            if (r->e.sp.rem == 0u && (st = pk_span_refill(r)) != PK_SRC_OK)
                 break;
-            if (k + 1 != lim && (r->lv[k + 1].st & LV_DEFER) != 0u) {
-                lv_more(r, &r->lv[k + 1], r->kind);
-            } else {
-                pk_w8_t p[PK_AXES];
-                st_take(r, k, p);
-                st_feed(r, k + 1, p);
+            k += pk_span_emit_block(r, p + (size_t)k * dims, max_points - k);
+        }
+    } else
+#endif
+    {
+        while (k < max_points) {
+            struct pk_refine_out o;
+            if ((st = pull_one(r, &o)) != PK_OK)
+                break;
+            for (unsigned a = 0; a < dims; a++) {
+                p[(size_t)k * dims + a] = o.p[a];
+                if (t != NULL && r->cfg.tangents)
+                    t[(size_t)k * dims + a] = o.t[a];
             }
             k++;
-            continue;
-        }
-        if (st_exhausted(r, k)) {
-            if (k == top) {
-                pk_refine_reset(r);
-                return PK_END;
-            }
-            st_finish(r, k + 1);
-            k++;
-            continue;
-        }
-        if (k < 0)
-            return PK_NEED_INPUT;
-        k--;
-    }
-
-    if (top == (int)r->cfg.depth && r->cfg.limit) {
-        for (unsigned a = 0; a < PK_AXES; a++)
-            out->t[a] = 0;
-        out->p[PK_AXES - 1] = 0;
-        pk_limit_emit(r, out);
-    } else {
-        pk_w8_t p[PK_AXES] = { 0 };
-        st_take(r, top, p);
-        for (unsigned a = 0; a < PK_AXES; a++) {
-            out->p[a] = pk_rshift_round32(p[a], PK_W8_SHIFT);
-            out->t[a] = 0;
         }
     }
-    r->out_done++;
-    if (r->out_left != UINT32_MAX)
-        r->out_left--;
-    return PK_OK;
+    *got = k;
+    if (k > 0u)
+        return PK_OK;
+    if (st == PK_END)
+        pk_refine_reset(r);
+    return st;
 }
 
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)
 {
-    /* In steady state every level turns one input into two outputs, so a push
-     * releases exactly 2^depth points (fewer while the stroke starts). A
-     * finish releases each level's tail: at most 4 points per level for open
-     * strokes (the clamped cubic's V, T', E, P), and for closed strokes the
-     * replayed first points, at most PK_CLOSE_MAX, each refined 2^depth-fold.
-     * The limit stage adds at most one burst of PK_LWIN anchors per stroke
-     * (when an open polygon first has enough points to tell its ends).
-     * Measured maxima are at or below these (tests/test_refine.c, fuzz_refine). */
+    /* In steady state a push lets one more span (2^depth points) through:
+     * every engine releases at most that. A finish releases the stroke's
+     * last spans: at most 4 * 2^depth for open strokes (the clamped cubic's
+     * last two spans and its end points; the cascade's per-level tails), and
+     * for closed strokes the replayed first points, at most PK_CLOSE_MAX,
+     * each refined 2^depth-fold. The limit stage adds at most one burst of
+     * PK_LWIN anchors per stroke (when an open polygon first has enough
+     * points to tell its ends). Measured maxima are at or below these
+     * (tests/test_refine.c, fuzz_refine). */
     unsigned d = cfg->depth > PK_MAX_DEPTH ? PK_MAX_DEPTH : cfg->depth;
     uint32_t burst = (cfg->limit || cfg->tangents) ? (uint32_t)PK_LWIN : 0u;
     return ((cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d) + burst;
 }
+
+#endif /* !PK_CHAIKIN_ONLY */

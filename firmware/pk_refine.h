@@ -27,26 +27,38 @@
  *     pk_refine_finish(&r);
  *     while (pk_refine_pull(&r, &out) == PK_OK) consume(out);   // ... until PK_END
  *
- * The kernel never blocks and never needs the whole polyline. A push only
- * stores the point; the work happens lazily inside pull, one output point per
- * call, so a consumer that stops pulling (a full motion queue) simply pauses
+ * pk_refine_pull_block does the same for up to N points at a time into the
+ * caller's arrays. The kernel never blocks and never needs the whole
+ * polyline. A push only stores the point; the work happens lazily inside
+ * pull, so a consumer that stops pulling (a full motion queue) simply pauses
  * the kernel, which resumes exactly where it stopped. After PK_END the same
  * struct takes the next stroke with the same configuration.
  *
- * Exactness: see pk_refine.c for the full argument. In short, points are
- * carried in pk_w8_t (8 guard bits below the micrometre) and every mask sum is
- * formed exactly and rounded once per level at 1/256 µm, then once more to
- * whole micrometres on output. Every output is within 0.5 + depth/512 LSB of
- * the exact rational result for the B-splines and 0.5 + (1.25^depth - 1)/128
- * LSB for DLG (tests/test_vectors.c checks exactly these bounds);
- * rounding is ties-away-from-zero, so mirroring the input about an axis
- * mirrors the output exactly and reversing it reverses the output exactly.
+ * Exactness: see pk_refine.c for the argument. Every output coordinate is
+ * the exact rational result of the specified refinement (and limit mask),
+ * rounded once to the nearest micrometre, ties away from zero: the error is
+ * at most 0.5 LSB. Intermediate values are exact dyadic rationals N / 2^F
+ * (pk_umf_t); nothing is rounded before the output. Two exceptions, where N
+ * would need more than 63 bits: B-spline degree 6 at depth 8 and degree 7 at
+ * depths 7..8 keep 36 and 35 fraction bits in their last levels (error at
+ * most 0.5 + 2^-34 LSB), and limit positions of degrees 5..7 drop the
+ * fraction bits a mask sum could not hold (at most 0.5 + 2^-26 LSB). All
+ * bounds hold over the whole input range (tests/test_vectors.c checks them
+ * exactly). Ties-away-from-zero is odd-symmetric, so mirroring the input
+ * about an axis mirrors the output exactly and reversing it reverses the
+ * output exactly. Unit tangents come from the exact (unrounded) polygon.
+ *
+ * Builds carry only what they use. The PK_BUILD_* macros below choose the
+ * schemes, end rules, closed curves and the limit/tangent stage at compile
+ * time; pk_refine_init refuses anything not built with PK_ENOTSUP. Mask
+ * tables are linked only for what is built, and a Chaikin-only build needs
+ * none: its limit stage is written out (edge midpoints, end points, edge
+ * vectors). See the README's kernel section for the build and state tables.
  */
 #ifndef PLOTKIN_PK_REFINE_H
 #define PLOTKIN_PK_REFINE_H
 
 #include <stdint.h>
-#include "pk_fixed.h"
 
 /** Axes stored per point (compile-time; 2 halves the state of XY-only builds). */
 #ifndef PK_AXES
@@ -56,16 +68,94 @@
 #ifndef PK_MAX_DEPTH
 #define PK_MAX_DEPTH 8
 #endif
-/** Points of history kept per level: 2 is enough for Chaikin (any end rule),
- *  4 for the cubic and DLG, 5 for every degree up to 7. */
+
+/* ---- build selection ------------------------------------------------------
+ * PK_BUILD_DEGREES  bit D set: B-spline degree D is built (D = 1..7).
+ *                   Default 0xFE (all); Chaikin only: 0x04; Chaikin and the
+ *                   cubic: 0x0C.
+ * PK_BUILD_DLG      1: the DLG 4-point scheme is built (default 1).
+ * PK_BUILD_ENDS     bit e set: open end rule e is built, with e =
+ *                   PK_ENDS_CLAMPED (1), PK_ENDS_REPLACE (2), PK_ENDS_NONE
+ *                   (3). Default 0x0E (all); clamped only: 0x02.
+ * PK_BUILD_CLOSED   1: closed curves are built (default 1).
+ * PK_BUILD_LIMIT    1: the limit/tangent stage (cfg.limit, cfg.tangents) is
+ *                   built (default 1).
+ * A configuration outside what is built gets PK_ENOTSUP from pk_refine_init.
+ * The smallest useful build, Chaikin with clamped ends on 2 axes:
+ *   -DPK_AXES=2 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02
+ *   -DPK_BUILD_CLOSED=0 [-DPK_BUILD_LIMIT=0] [-DPK_MAX_DEPTH=5]
+ * (PK_MAX_DEPTH <= 5 there also switches the working values to 32 bits.) */
+#ifndef PK_BUILD_DEGREES
+#define PK_BUILD_DEGREES 0xFE
+#endif
+#ifndef PK_BUILD_DLG
+#define PK_BUILD_DLG 1
+#endif
+#ifndef PK_BUILD_ENDS
+#define PK_BUILD_ENDS 0x0E
+#endif
+#ifndef PK_BUILD_CLOSED
+#define PK_BUILD_CLOSED 1
+#endif
+#ifndef PK_BUILD_LIMIT
+#define PK_BUILD_LIMIT 1
+#endif
+
+/** Chaikin with clamped ends only: the kernel is pk_refine_chaikin.c alone
+ *  (written out for the smallest chips), the general one is not compiled. */
+#define PK_CHAIKIN_ONLY (PK_BUILD_DEGREES == 0x04 && !PK_BUILD_DLG && PK_BUILD_ENDS == 0x02 && !PK_BUILD_CLOSED)
+
+/* Which engines that selection needs (see pk_refine.c). The closed-form span
+ * engine serves B-spline degrees 1..3 with clamped or no end rule and closed
+ * curves (and degree 1 with any rule); the level cascade serves DLG, the
+ * replace rule of degrees 2..3 and every degree >= 4. */
+#define PK_HAVE_SPAN (((PK_BUILD_DEGREES & 0x02) != 0 || \
+                       ((PK_BUILD_DEGREES & 0x0C) != 0 && ((PK_BUILD_ENDS & 0x0A) != 0 || PK_BUILD_CLOSED))) && \
+                      !PK_CHAIKIN_ONLY)
+#define PK_HAVE_CASCADE ((PK_BUILD_DLG || (PK_BUILD_DEGREES & 0xF0) != 0 || \
+                          ((PK_BUILD_ENDS & 0x04) != 0 && (PK_BUILD_DEGREES & 0x0C) != 0)) && !PK_CHAIKIN_ONLY)
+/** Highest degree the span engine handles in this build. */
+#define PK_SPAN_DMAX ((PK_BUILD_DEGREES & 0x08) ? 3 : (PK_BUILD_DEGREES & 0x04) ? 2 : 1)
+/** Input points the span engine keeps (a ring, so a power of two): a
+ *  clamped span's D + 1 plus the lookahead that tells it from the stroke's
+ *  last spans (2D in all), or D + 2 for the plain rule (one span per push). */
+#define PK_SPAN_WIN (PK_SPAN_DMAX == 3 ? 8 : 4)
+/** The span engine's degree when the build has only one (else 0). */
+#define PK_SPAN_ONE_D ((PK_BUILD_DEGREES & 0x0E) == 0x04 ? 2 : (PK_BUILD_DEGREES & 0x0E) == 0x08 ? 3 \
+                       : (PK_BUILD_DEGREES & 0x0E) == 0x02 ? 1 : 0)
+
+/* Largest number of fraction bits F a level-K value needs in this build
+ * (pk_refine.c, "Ranges"); 32-bit working values when that is <= 10. */
+#define PK_F_MAX_SPAN ((PK_BUILD_DEGREES & 0x08) ? 3 * PK_MAX_DEPTH + 1 \
+                       : (PK_BUILD_DEGREES & 0x04) ? 2 * PK_MAX_DEPTH : PK_MAX_DEPTH)
+#ifndef PK_UMF_BITS
+#if PK_HAVE_CASCADE || PK_F_MAX_SPAN > 10
+#define PK_UMF_BITS 64
+#else
+#define PK_UMF_BITS 32
+#endif
+#endif
+
+#include "pk_fixed.h"
+
+/** Points of history kept per cascade level: DLG needs 4, degree D
+ *  (D + 1) / 2 + 1, so 5 covers every degree up to 7; pk_refine_init answers
+ *  PK_ENOTSUP for a scheme that needs more. Only the cascade (DLG, degrees
+ *  >= 4, the replace rule of degrees 2..3) uses it: builds without one (e.g.
+ *  Chaikin or the cubic with clamped ends) ignore it. */
 #ifndef PK_WIN
 #define PK_WIN 5
 #endif
-/** Points kept by the limit/tangent stage (one per stream, not per level). */
+/** The limit stage needs mask tables (pk_masks.c) only for schemes other
+ *  than Chaikin, whose limit stage is written out. */
+#define PK_LIMIT_TABLES (PK_BUILD_LIMIT && (PK_BUILD_DLG || (PK_BUILD_DEGREES & ~0x04) != 0))
+/** Points kept by the limit/tangent stage (one per stream): 8 for the
+ *  widest table-driven stencils, 3 for Chaikin's. */
 #ifndef PK_LWIN
-#define PK_LWIN 8
+#define PK_LWIN (PK_LIMIT_TABLES ? 8 : 3)
 #endif
-/** First points remembered to close a closed curve (D for B-splines, 5 for DLG). */
+/** First points remembered to close a closed curve (D for B-splines, 5 for
+ *  DLG, more for wide limit stencils). */
 #ifndef PK_CLOSE_MAX
 #define PK_CLOSE_MAX 7
 #endif
@@ -76,6 +166,18 @@
 #if PK_WIN < 2 || PK_WIN > 8 || PK_MAX_DEPTH < 0 || PK_MAX_DEPTH > 8
 #error "PK_WIN must be 2..8 and PK_MAX_DEPTH 0..8"
 #endif
+#if (PK_BUILD_DEGREES & ~0xFE) != 0 || (PK_BUILD_ENDS & ~0x0E) != 0
+#error "PK_BUILD_DEGREES takes bits 1..7, PK_BUILD_ENDS bits 1..3"
+#endif
+#if PK_BUILD_DEGREES == 0 && !PK_BUILD_DLG
+#error "build at least one scheme"
+#endif
+#if !PK_BUILD_DLG && !PK_BUILD_CLOSED && PK_BUILD_ENDS == 0x02 && (PK_BUILD_DEGREES & 0x0E) == 0
+#error "clamped ends exist for degrees 1..3 only: this build would support nothing"
+#endif
+#if PK_UMF_BITS == 32 && (PK_HAVE_CASCADE || PK_F_MAX_SPAN > 10)
+#error "PK_UMF_BITS=32 needs a build without the cascade and with at most 10 fraction bits"
+#endif
 
 /** Status codes. Non-negative values are normal outcomes, negative are errors. */
 enum pk_status {
@@ -85,7 +187,7 @@ enum pk_status {
     PK_EBUSY = -1,      /**< push: the previous point is not consumed yet; pull first */
     PK_ERANGE = -2,     /**< push: a coordinate is outside ±PK_UM_MAX; nothing changed */
     PK_EINVAL = -3,     /**< init: bad configuration value */
-    PK_ENOTSUP = -4,    /**< init: combination not built in (see PK_WIN, PK_LWIN) */
+    PK_ENOTSUP = -4,    /**< init: valid, but not built in (PK_BUILD_*, PK_WIN, ...) */
     PK_ESTATE = -5,     /**< push after finish, before PK_END */
     PK_ETOOLONG = -6    /**< push: a closed stroke longer than PK_CLOSED_MAX_POINTS */
 };
@@ -110,59 +212,106 @@ struct pk_refine_cfg {
 
 /** One output point. t is valid only with cfg.tangents (else zero). */
 struct pk_refine_out {
-    pk_um_t p[PK_AXES];   /**< position, µm */
+    pk_um_t p[PK_AXES];   /**< position, µm (axes beyond cfg.dims are 0) */
     pk_q30_t t[PK_AXES];  /**< unit tangent, Q1.30; all zero where undefined */
 };
 
-/** Per-level state (private; exposed only so that callers can own the storage). */
+/* ---- private state (exposed only so that callers can own the storage) ---- */
+
+#if PK_HAVE_SPAN || PK_CHAIKIN_ONLY
+/** The closed-form span engine: one polynomial run at a time. */
+struct pk_span {
+    pk_umf_t s[PK_SPAN_DMAX + 1][PK_AXES]; /**< s[0] the next level-K point, s[d] its d-th
+                                              forward difference (s[D] constant in a span) */
+    pk_um_t w[PK_SPAN_WIN][PK_AXES];       /**< the last input points taken: P(i) in w[i % PK_SPAN_WIN] */
+    uint16_t rem;    /**< outputs left in the current run (<= 2^depth + 3) */
+    uint16_t pad0_;
+    uint32_t blk;    /**< span index of the current run (modulo 2^32) */
+    uint8_t ph;      /**< phase: which run comes next (pk_refine.c) */
+    uint8_t D;       /**< degree */
+    uint8_t K;       /**< depth in use for this stroke (a 3-point clamped cubic: one less) */
+    uint8_t g;       /**< fraction bits of the points in w (32-bit builds: up to 8 - F;
+                          a 3-point clamped cubic: 3 more) */
+    uint8_t lft;     /**< spans since the first, saturating at 3 (clamped left ends) */
+    uint8_t pad_[3];
+};
+#endif
+
+#if PK_HAVE_CASCADE
+/** One level of the exact cascade. */
 struct pk_level {
-    pk_w8_t w[PK_WIN][PK_AXES]; /**< the last inputs, w[0] oldest */
+    pk_umf_t w[PK_WIN][PK_AXES]; /**< the last inputs (exact, this level's scale), w[0] oldest */
     uint8_t n;      /**< inputs seen, saturating at 255 (only "how many so far" matters) */
     uint8_t pend;   /**< outputs ready to emit */
     uint8_t ph;     /**< which output of the current batch comes next */
     uint8_t st;     /**< PK_LV_* state bits */
 };
+#endif
 
-/** The limit/tangent stage (private). */
+#if PK_BUILD_LIMIT && !PK_CHAIKIN_ONLY
+/** The limit/tangent stage (one per stream). */
 struct pk_limit_stage {
-    pk_w8_t w[PK_LWIN][PK_AXES]; /**< the last inputs, w[PK_LWIN-1] newest */
+    pk_umf_t w[PK_LWIN][PK_AXES]; /**< the last level-K points, w[PK_LWIN-1] newest */
     uint8_t n;      /**< inputs seen, saturating at 255 */
     int8_t lag;     /**< newest input index minus the next anchor's index */
     uint8_t a;      /**< index of the next anchor, saturating at 255 */
     uint8_t st;     /**< LV_FIN when finished */
+    uint8_t thr;    /**< lag at which the front anchor is released */
+    uint8_t edge;   /**< the rule's anchors are edges (even degree) */
+    uint8_t nend;   /**< anchors 0..nend-1 from each end have masks of their own */
+    uint8_t drop;   /**< bit a: end anchor a is dropped */
+    uint8_t min_n;  /**< shorter polygons use per-size masks */
+    uint8_t pad_[3];
+    const int32_t *rule; /**< table-driven stage: its rule (pk_masks.h); NULL: Chaikin's */
 };
+#endif
 
 /** One stream. Caller-owned; its size is fixed at compile time. */
 struct pk_refine {
     struct pk_refine_cfg cfg;
     uint8_t D;             /**< effective degree (DLG: 0) */
     uint8_t ends;          /**< effective end rule */
-    uint8_t nlev;          /**< stages in use: depth (+1 with limit) */
+    uint8_t engine;        /**< which engine serves this configuration (pk_refine.c) */
+    uint8_t fast;          /**< pull may take the span engine's run directly */
     uint8_t in_full;       /**< the input slot holds a point */
     uint8_t finishing;     /**< finish() was called */
     uint8_t close_c;       /**< closed: first points to replay */
     uint8_t close_i;       /**< closed: replay position */
-    uint8_t kind;          /**< what every level does (derived from cfg at init) */
-    uint8_t win;           /**< window points this scheme uses (<= PK_WIN) */
-    uint8_t lim_thr;       /**< limit stage: lag at which the front anchor is released */
+    uint8_t F;             /**< fraction bits of the level-K values */
+    uint8_t G;             /**< cascade: most fraction bits a level keeps */
     uint8_t pad_[2];
-    uint32_t m;            /**< points pushed in this stroke (closed: bounded) */
-    uint32_t out_done;     /**< points delivered in this stroke (closed only needs it) */
+    pk_umf_t half;         /**< 2^(F-1): the output rounding's half unit (0 if F = 0) */
+    uint32_t m;            /**< points pushed in this stroke (saturating) */
+    uint32_t taken;        /**< points the engine has taken from the input (modulo 2^32) */
+    uint32_t out_done;     /**< closed: outputs delivered or committed to a run */
     uint32_t out_left;     /**< closed: outputs still to give (2^depth * m), else UINT32_MAX */
-    const void *lim_rule;  /**< limit stage: its mask table (pk_masks.h) */
-    pk_w8_t in[PK_AXES];   /**< the input slot */
-    pk_w8_t first[PK_CLOSE_MAX][PK_AXES]; /**< closed: the stroke's first points */
-    struct pk_level lv[PK_MAX_DEPTH];
+    pk_um_t in[PK_AXES];   /**< the input slot */
+#if PK_BUILD_CLOSED
+    pk_um_t first[PK_CLOSE_MAX][PK_AXES]; /**< closed: the stroke's first points */
+#endif
+    union {
+#if PK_HAVE_SPAN || PK_CHAIKIN_ONLY
+        struct pk_span sp;
+#endif
+#if PK_HAVE_CASCADE
+        struct pk_level lv[PK_MAX_DEPTH > 0 ? PK_MAX_DEPTH : 1];
+#endif
+        uint8_t none_;
+    } e;
+#if PK_BUILD_LIMIT && !PK_CHAIKIN_ONLY
     struct pk_limit_stage lim;
+#endif
 };
 
 /**
  * Initialise a stream.
  * @retval PK_OK       ready for the first point
  * @retval PK_EINVAL   degree, depth, dims or an enum is out of range
- * @retval PK_ENOTSUP  the scheme needs more history than PK_WIN/PK_LWIN/
- *                     PK_CLOSE_MAX were built with, or an end rule that does
- *                     not exist for that degree (clamped needs D <= 3)
+ * @retval PK_ENOTSUP  the configuration is valid but not in this build: a
+ *                     scheme, degree, end rule, closed curves or the limit
+ *                     stage left out by PK_BUILD_*, more history than
+ *                     PK_WIN/PK_LWIN/PK_CLOSE_MAX allow, or an end rule that
+ *                     does not exist for that degree (clamped needs D <= 3)
  * Calling context: any; no side effects beyond *r.
  */
 int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg);
@@ -179,6 +328,7 @@ int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg);
  * The checks come in the order listed (PK_ESTATE, then PK_EBUSY, then
  * PK_ERANGE): a bad point offered while the slot is busy gets PK_EBUSY
  * first. Every non-PK_OK answer leaves the stream unchanged.
+ * Calling context: MAIN (same context as pull).
  */
 int pk_refine_push(struct pk_refine *r, const pk_um_t p[PK_AXES]);
 
@@ -195,21 +345,40 @@ void pk_refine_finish(struct pk_refine *r);
  * @retval PK_END         the finished stroke is fully delivered; the stream
  *                        is reset and takes a new stroke
  * A point once returned is never returned again; stopping here loses nothing.
+ * Calling context: MAIN. Bounded work per call: O(depth) at worst.
  */
 int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out);
+
+/**
+ * Take up to max_points refined points at once: exactly what as many calls
+ * of pk_refine_pull would give, written densely into the caller's arrays.
+ * @param p   cfg.dims coordinates per point (x, y[, z], x, y[, z], ...), µm;
+ *            room for max_points points
+ * @param t   NULL, or (with cfg.tangents) room for cfg.dims Q1.30 tangent
+ *            components per point
+ * @param got set to the number of points written
+ * @retval PK_OK          *got >= 1 points were written (fewer than max_points
+ *                        only where pk_refine_pull would next say
+ *                        PK_NEED_INPUT or PK_END; the next call says so)
+ * @retval PK_NEED_INPUT, PK_END   as pk_refine_pull, with *got = 0
+ * max_points = 0 writes nothing and returns PK_OK with *got = 0.
+ * Calling context: MAIN. Work is proportional to the points written.
+ */
+int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
+                         uint32_t *got);
 
 /** Drop the current stroke (e.g. on a soft reset); keeps the configuration. */
 void pk_refine_reset(struct pk_refine *r);
 
 /**
  * Upper bound on the points pk_refine_pull can deliver between one
- * PK_NEED_INPUT (or the start) and the next. After a push it is exactly
- * 2^depth in steady state (plus, with limit/tangents, one burst of at most
- * PK_LWIN once per stroke, when an open polygon first has enough points to
- * tell its ends); after pk_refine_finish it is at most 4 * 2^depth for open
- * strokes and (PK_CLOSE_MAX + 1) * 2^depth for closed ones (plus the same
- * PK_LWIN with limit). This returns the larger, so a consumer with this much
- * room never has to stop mid-stroke (stopping anyway is always safe).
+ * PK_NEED_INPUT (or the start) and the next. After a push it is at most
+ * 2^depth (plus, with limit/tangents, one burst of at most PK_LWIN once per
+ * stroke, when an open polygon first has enough points to tell its ends);
+ * after pk_refine_finish it is at most 4 * 2^depth for open strokes and
+ * (PK_CLOSE_MAX + 1) * 2^depth for closed ones (plus the same PK_LWIN with
+ * limit). This returns the larger, so a consumer with this much room never
+ * has to stop mid-stroke (stopping anyway is always safe).
  */
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg);
 

@@ -295,37 +295,46 @@ int cmd_refine(int argc, char **argv)
         }
         if (in.brk[i])
             pk_refine_finish(&r);
-        struct pk_refine_out o;
+        /* the block pull: up to 256 points per call into our own arrays */
+        pk_um_t bp[256 * PK_AXES];
+        pk_q30_t bt[256 * PK_AXES];
+        uint32_t got = 0;
         int pr;
-        while ((pr = pk_refine_pull(&r, &o)) == PK_OK) {
-            if (raw)
-                printf("%" PRId32 " %" PRId32, o.p[0], o.p[1]);
-            else {
-                print_mm(stdout, o.p[0]);
-                putchar(' ');
-                print_mm(stdout, o.p[1]);
-            }
-            if (cfg.dims == 3) {
-                putchar(' ');
-                if (raw)
-                    printf("%" PRId32, o.p[2]);
-                else
-                    print_mm(stdout, o.p[2]);
-            }
-            if (cfg.tangents)
+        while ((pr = pk_refine_pull_block(&r, bp, cfg.tangents ? bt : NULL, 256, &got)) == PK_OK)
+            for (uint32_t k = 0; k < got; k++) {
+                struct pk_refine_out o = { { 0 }, { 0 } };
                 for (int a = 0; a < cfg.dims; a++) {
-                    if (raw)
-                        printf(" %" PRId32, o.t[a]);
-                    else
-                        printf(" %.9f", o.t[a] / (double)PK_Q30_ONE);
+                    o.p[a] = bp[k * cfg.dims + (uint32_t)a];
+                    o.t[a] = cfg.tangents ? bt[k * cfg.dims + (uint32_t)a] : 0;
                 }
-            putchar('\n');
-            if (svg) {
-                pk_um_t q3[3] = { o.p[0], o.p[1], cfg.dims == 3 ? o.p[2] : 0 };
-                if (pts_add(&out, q3))
-                    return 1;
+                if (raw)
+                    printf("%" PRId32 " %" PRId32, o.p[0], o.p[1]);
+                else {
+                    print_mm(stdout, o.p[0]);
+                    putchar(' ');
+                    print_mm(stdout, o.p[1]);
+                }
+                if (cfg.dims == 3) {
+                    putchar(' ');
+                    if (raw)
+                        printf("%" PRId32, o.p[2]);
+                    else
+                        print_mm(stdout, o.p[2]);
+                }
+                if (cfg.tangents)
+                    for (int a = 0; a < cfg.dims; a++) {
+                        if (raw)
+                            printf(" %" PRId32, o.t[a]);
+                        else
+                            printf(" %.9f", o.t[a] / (double)PK_Q30_ONE);
+                    }
+                putchar('\n');
+                if (svg) {
+                    pk_um_t q3[3] = { o.p[0], o.p[1], cfg.dims == 3 ? o.p[2] : 0 };
+                    if (pts_add(&out, q3))
+                        return 1;
+                }
             }
-        }
         if (pr == PK_END) {
             if (i + 1 < in.n)
                 putchar('\n');

@@ -3,11 +3,15 @@
  * through the whole firmware in the simulator and report what the machine
  * did (see `plotkin sim --help`).
  */
+#define _DEFAULT_SOURCE 1 /* madvise */
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include "commands.h"
 #include "sim_report.h"
@@ -24,15 +28,19 @@ static const char sim_usage[] =
     "  FILE             G-code, or a plain polyline: one `x y` (mm) per line, a blank\n"
     "                   line between strokes (pen up between them); '-' reads stdin\n"
     "  --json           print the summary as one JSON object\n"
-    "  --svg OUT        draw the commanded path (wide, light) and the executed path\n"
-    "                   decoded from the step pulses (thin, dark); pen-up moves dashed\n"
+    "  --svg OUT        draw the programmed path (wide, light) and the executed path\n"
+    "                   decoded from the step pulses (thin, dark); travels dashed\n"
+    "  --svg-tolerance MM  the drawing is thinned within MM of each path (default 0.01)\n"
     "  --trace OUT.csv  write every pin edge (tick, time, signal, raw level)\n"
     "  --config FILE    machine settings, Grbl-style `$N=value` lines (as `$$` prints):\n"
     "                   $0 step pulse us, $11 junction deviation mm, $12 tolerance mm,\n"
     "                   $100-102 steps/mm, $110-112 max rate mm/min, $120-122 accel mm/s^2,\n"
     "                   $130-132 travel mm, $200 smoothing 0 off/1 fixed/2 tolerance,\n"
     "                   $201 scheme 0 B-spline/1 DLG, $202 degree, $203 depth,\n"
-    "                   $204 sharp corner deg, $205 pen settle ms, $206 dir set-up us\n"
+    "                   $204 sharp corner deg, $205 pen settle ms, $206 dir set-up us;\n"
+    "                   read by the simulator only: $32=1 laser mode, $208=H pen-down height\n"
+    "  --pen-z H        the pen is down at Z <= H mm ($208; M3/M5 then do not draw)\n"
+    "  --laser          laser mode ($32=1): G1 moves with M3/M4 and S > 0 burn, G0 never\n"
     "  --axes N         axes driven, 2 or 3 (default 3)\n"
     "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM;\n"
     "                   either overrides G61/G64 in the program\n"
@@ -41,8 +49,11 @@ static const char sim_usage[] =
     "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
     "                   request), set:N (the Nth write) - to see how the firmware copes\n"
     "\n"
-    "Speeds and accelerations are estimated per axis from the decoded step times\n"
-    "over runs of 16 steps (cornering shows as acceleration, as on the machine).\n"
+    "Speeds are measured per axis from the decoded step times over any 16 and any 2\n"
+    "consecutive steps, accelerations between windows of >= 16 steps and >= 20 ms,\n"
+    "each with the least value the step quantisation allows (>=). The deviation is\n"
+    "the distance from each decoded step position to the programmed path (lines,\n"
+    "arcs and G5 curves evaluated exactly): its maximum, where, and 95th percentile.\n"
     "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
     "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
@@ -107,9 +118,53 @@ static void json_arr_d(FILE *f, const double *v, unsigned n, const char *fmt)
     fputc(']', f);
 }
 
+static void json_rate(FILE *f, const char *key, const struct pk_sim_result *r, unsigned axes, int which,
+                      int proven)
+{
+    fprintf(f, ",\n  \"%s\": [", key);
+    for (unsigned a = 0; a < axes; a++) {
+        const struct pk_rate *e = &r->rate[a];
+        double v = which == 0 ? (proven ? e->speed16.lo_max : e->speed16.vmax.v)
+                 : which == 1 ? (proven ? e->speed2.lo_max : e->speed2.vmax.v)
+                              : (proven ? e->accel_proven.lo_abs_max : fabs(e->accel.amax.a));
+        fprintf(f, which == 2 ? "%s%.1f" : "%s%.3f", a ? ", " : "", v);
+    }
+    fputc(']', f);
+}
+
+static void json_path(FILE *f, const char *prefix, const struct pk_path *p, double hz)
+{
+    const struct pk_path_stats *s = &p->st;
+    fprintf(f, ",\n  \"%smax_deviation_mm\": %.4f,\n  \"%sdeviation_p95_mm\": %.4f,\n", prefix,
+            s->max_um / 1000.0, prefix, pk_path_quantile(p, 0.95) / 1000.0);
+    fprintf(f, "  \"%sdeviation_line_last\": %u,\n  \"%sdeviation_within_mm\": %.4f,\n", prefix,
+            (unsigned)s->max_line_last, prefix, s->approx_um / 1000.0);
+    fprintf(f, "  \"%sdeviation_at_mm\": [%.4f, %.4f, %.4f],\n  \"%sdeviation_line\": %u,\n"
+               "  \"%sdeviation_t_s\": %.6f,\n  \"%sdeviation_points\": %llu,\n  \"%spath_forced_drops\": %llu",
+            prefix, s->max_at_um[0] / 1000.0, s->max_at_um[1] / 1000.0, s->max_at_um[2] / 1000.0, prefix,
+            (unsigned)s->max_line, prefix, (double)s->max_tick / hz, prefix, (unsigned long long)s->points,
+            prefix, (unsigned long long)s->forced_drops);
+}
+
+/* Peak resident memory of this process so far (Linux VmHWM), kB; -1 if unknown. */
+static long vm_hwm_kb(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kb = -1;
+    if (f == NULL)
+        return -1;
+    while (fgets(line, sizeof line, f) != NULL)
+        if (strncmp(line, "VmHWM:", 6) == 0)
+            kb = strtol(line + 6, NULL, 10);
+    fclose(f);
+    return kb;
+}
+
 static void print_json(FILE *f, const char *file, const struct pk_sim_result *r, unsigned axes)
 {
-    double fmm[PK_AXES], v[PK_AXES];
+    double fmm[PK_AXES];
+    const double hz = (double)r->hw.sched.tick_hz;
     fputs("{\n  \"file\": ", f);
     json_str(f, file);
     fprintf(f, ",\n  \"axes\": %u,\n  \"status\": ", axes);
@@ -129,21 +184,37 @@ static void print_json(FILE *f, const char *file, const struct pk_sim_result *r,
         fmm[a] = pk_sim_steps_to_um(r, a, r->dec.pos[a]) / 1000.0;
     fputs("],\n  \"final_mm\": ", f);
     json_arr_d(f, fmm, axes, "%.4f");
-    fprintf(f, ",\n  \"sim_time_s\": %.6f,\n", (double)r->ticks / (double)r->hw.sched.tick_hz);
-    fputs("  \"max_speed_mm_s\": ", f);
-    json_arr_d(f, r->max_speed_mm_s, axes, "%.3f");
-    fputs(",\n  \"max_accel_mm_s2\": ", f);
-    json_arr_d(f, r->max_accel_mm_s2, axes, "%.1f");
-    fprintf(f, ",\n  \"max_deviation_mm\": %.4f,\n", r->deviation_um / 1000.0);
+    fprintf(f, ",\n  \"sim_time_s\": %.6f", (double)r->ticks / hz);
+    json_rate(f, "max_speed_mm_s", r, axes, 0, 0);
+    json_rate(f, "max_speed_proven_mm_s", r, axes, 0, 1);
+    json_rate(f, "max_speed2_mm_s", r, axes, 1, 0);
+    json_rate(f, "max_speed2_proven_mm_s", r, axes, 1, 1);
+    json_rate(f, "max_accel_mm_s2", r, axes, 2, 0);
+    json_rate(f, "max_accel_proven_mm_s2", r, axes, 2, 1);
+    fputs(",\n  \"over_limits\": [", f);
+    for (unsigned a = 0; a < axes; a++) {
+        const struct pk_rate *e = &r->rate[a];
+        int over = e->speed16.proven_over || e->speed2.proven_over || e->accel_proven.proven_over;
+        fprintf(f, "%s%s", a ? ", " : "", over ? "true" : "false");
+    }
+    fputc(']', f);
+    if (r->prog.st.points > 0u)
+        json_path(f, "", &r->prog, hz);
+    else
+        fputs(",\n  \"max_deviation_mm\": null", f);
+    if (r->ref_on && r->ref.st.points > 0u)
+        json_path(f, "ref_", &r->ref, hz);
+    fprintf(f, ",\n  \"path_primitives\": %llu,\n", (unsigned long long)r->prog.st.prims);
+    size_t kept = r->dec.n_viol < PK_VIOL_KEEP ? r->dec.n_viol : PK_VIOL_KEEP;
     fprintf(f, "  \"timing_violations\": %zu,\n  \"violations\": [", r->dec.n_viol);
-    for (size_t i = 0; i < r->dec.n_viol; i++) {
+    for (size_t i = 0; i < kept; i++) {
         const struct pk_violation *vi = &r->dec.viol[i];
         fprintf(f, "%s\n    {\"tick\": %llu, \"axis\": \"%c\", \"kind\": \"%s\", \"got_ns\": %llu, \"min_ns\": %u}",
                 i ? "," : "", (unsigned long long)vi->t, "XYZA"[vi->axis & 3u],
                 pk_violation_name((enum pk_violation_kind)vi->kind), (unsigned long long)vi->got_ns,
                 (unsigned)vi->limit_ns);
     }
-    fprintf(f, "%s],\n  \"errors\": %lu,\n  \"error_lines\": [", r->dec.n_viol ? "\n  " : "", r->job.errors);
+    fprintf(f, "%s],\n  \"errors\": %lu,\n  \"error_lines\": [", kept ? "\n  " : "", r->job.errors);
     size_t ne = r->job.errors < 32u ? r->job.errors : 32u;
     for (size_t i = 0; i < ne; i++)
         fprintf(f, "%s{\"line\": %u, \"error\": %d}", i ? ", " : "", r->job.err[i].line, r->job.err[i].code);
@@ -151,106 +222,104 @@ static void print_json(FILE *f, const char *file, const struct pk_sim_result *r,
     json_str(f, r->job.alarms ? pk_sim_alarm_name(r->job.alarm) : "");
     fputs(",\n  \"alarm_text\": ", f);
     json_str(f, r->job.alarm_text);
-    fprintf(f, ",\n  \"pin_edges\": %zu\n}\n", r->hw.trace.n);
-    (void)v;
+    fprintf(f, ",\n  \"pin_edges\": %zu,\n  \"vm_hwm_kb\": %ld\n}\n", r->hw.trace.n, vm_hwm_kb());
 }
 
-/* ---- SVG ------------------------------------------------------------------ */
-struct bbox { double x0, y0, x1, y1; };
+/* ---- the program: a G-code file is mapped and its pages let go as the job
+ * reads on, so memory stays flat whatever its size; a polyline file (small,
+ * hand-made) or stdin is read whole --------------------------------------- */
+struct input {
+    char *heap;          /* read into memory (stdin, polyline files), or NULL */
+    char *map;           /* mapped file, or NULL */
+    size_t len, released;
+};
 
-static void bb_add(struct bbox *b, double x, double y)
+#define INPUT_RELEASE_BYTES ((size_t)4 << 20)
+
+static void input_read(void *arg, size_t pos)
 {
-    if (x < b->x0) b->x0 = x;
-    if (y < b->y0) b->y0 = y;
-    if (x > b->x1) b->x1 = x;
-    if (y > b->y1) b->y1 = y;
+    struct input *in = arg;
+    if (in->map == NULL || pos < in->released + INPUT_RELEASE_BYTES)
+        return;
+    size_t page = (size_t)sysconf(_SC_PAGESIZE);
+    size_t upto = pos / page * page;
+    if (upto > in->released) {
+        (void)madvise(in->map + in->released, upto - in->released, MADV_DONTNEED);
+        in->released = upto;
+    }
 }
 
-static int write_svg(const char *path, const struct pk_sim_result *r, const char *title)
+/* Is the first line that says anything two numbers (a polyline file)? */
+static int looks_like_polyline(const char *p, size_t n)
 {
-    FILE *f = fopen(path, "w");
-    if (f == NULL)
-        return -1;
-    const struct pk_sim_job *j = &r->job;
-    struct bbox b = { INFINITY, INFINITY, -INFINITY, -INFINITY };
-    for (size_t i = 0; i < j->n_moves; i++) {
-        bb_add(&b, j->moves[i].a[0] / 1000.0, j->moves[i].a[1] / 1000.0);
-        bb_add(&b, j->moves[i].b[0] / 1000.0, j->moves[i].b[1] / 1000.0);
-    }
-    if (!isfinite(b.x0)) {
-        b = (struct bbox){ 0, 0, 10, 10 };
-    }
-    double m = 0.05 * fmax(b.x1 - b.x0, b.y1 - b.y0) + 2.0;
-    double w = b.x1 - b.x0 + 2 * m, h = b.y1 - b.y0 + 2 * m;
-    double sw = fmax(w, h) / 400.0; /* stroke width scale */
-    fprintf(f, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0fmm\" height=\"%.0fmm\" "
-               "viewBox=\"%.3f %.3f %.3f %.3f\">\n",
-            fmin(w, 300.0), fmin(w, 300.0) * h / w, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
-    fprintf(f, "<title>%s</title>\n<rect x=\"%.3f\" y=\"%.3f\" width=\"%.3f\" height=\"%.3f\" fill=\"white\"/>\n",
-            title, b.x0 - m, -(b.y1 + m), w, h + 3 * sw * 6);
-    /* commanded path: pen-up moves dashed (drawn first, underneath), pen-down solid */
-    fprintf(f, "<g fill=\"none\" stroke=\"#8ab4f8\" stroke-width=\"%.3f\" stroke-linecap=\"round\" "
-               "stroke-linejoin=\"round\">\n", 3 * sw);
-    for (int pass = 0; pass < 2; pass++) {
-        int open = 0;
-        for (size_t i = 0; i < j->n_moves; i++) {
-            const struct pk_sim_move *mv = &j->moves[i];
-            int down = mv->pen && !mv->rapid;
-            if (down != (pass == 1)) {
-                if (open)
-                    fputs("\"/>\n", f);
-                open = 0;
-                continue;
-            }
-            if (!open) {
-                fprintf(f, "<path %sd=\"M%.3f %.3f",
-                        pass ? "" : "stroke=\"#c6dafc\" stroke-dasharray=\"4 3\" stroke-width=\"1\" ",
-                        mv->a[0] / 1000.0, -mv->a[1] / 1000.0);
-                open = 1;
-            }
-            fprintf(f, " L%.3f %.3f", mv->b[0] / 1000.0, -mv->b[1] / 1000.0);
+    size_t i = 0;
+    while (i < n) {
+        size_t e = i;
+        while (e < n && p[e] != '\n')
+            e++;
+        size_t k = i;
+        while (k < e && (p[k] == ' ' || p[k] == '\t' || p[k] == '\r'))
+            k++;
+        if (k < e && p[k] != '#') {
+            char buf[128];
+            size_t m = e - k < sizeof buf - 1 ? e - k : sizeof buf - 1;
+            memcpy(buf, p + k, m);
+            buf[m] = '\0';
+            char *e1, *e2;
+            (void)strtod(buf, &e1);
+            if (e1 == buf)
+                return 0;
+            (void)strtod(e1, &e2);
+            return e2 != e1;
         }
-        if (open)
-            fputs("\"/>\n", f);
+        i = e + 1;
     }
-    fputs("</g>\n", f);
-    /* executed path from the decoded steps (thinned to 0.1 mm): pen up
-     * dotted and underneath, then pen down */
-    fprintf(f, "<g fill=\"none\" stroke=\"#202124\" stroke-width=\"%.3f\" stroke-linejoin=\"round\">\n", sw);
-    for (int pass = 0; pass < 2; pass++) {
-        int open = 0;
-        for (size_t i = 0; i < r->n_path; i++) {
-            const struct pk_sim_path_pt *pt = &r->path[i];
-            if (pt->pen != pass) {
-                if (open)
-                    fputs("\"/>\n", f);
-                open = 0;
-                continue;
+    return 0;
+}
+
+static int input_open(struct input *in, const char *path)
+{
+    memset(in, 0, sizeof *in);
+    if (strcmp(path, "-") != 0) {
+        int fd = open(path, O_RDONLY);
+        struct stat sb;
+        if (fd < 0)
+            return -1;
+        if (fstat(fd, &sb) == 0 && S_ISREG(sb.st_mode) && sb.st_size > 0) {
+            void *m = mmap(NULL, (size_t)sb.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+            if (m != MAP_FAILED) {
+                in->map = m;
+                in->len = (size_t)sb.st_size;
+                (void)madvise(m, in->len, MADV_SEQUENTIAL);
+                close(fd);
+                if (!looks_like_polyline(in->map, in->len))
+                    return 0;
+                munmap(in->map, in->len);
+                in->map = NULL;
+            } else {
+                close(fd);
             }
-            if (!open)
-                fprintf(f, "<path %sd=\"M%.3f %.3f",
-                        pass ? "" : "stroke=\"#9aa0a6\" stroke-dasharray=\"1 1.5\" ",
-                        pt->x_um / 1000.0, -pt->y_um / 1000.0);
-            else
-                fprintf(f, " L%.3f %.3f", pt->x_um / 1000.0, -pt->y_um / 1000.0);
-            open = 1;
+        } else {
+            close(fd);
         }
-        if (open)
-            fputs("\"/>\n", f);
     }
-    fputs("</g>\n", f);
-    fprintf(f, "<text x=\"%.3f\" y=\"%.3f\" font-family=\"sans-serif\" font-size=\"%.3f\" fill=\"#5f6368\">"
-               "%s: commanded (light, pen-up dashed) vs executed from decoded steps (dark)</text>\n",
-            b.x0 - m + sw * 4, -(b.y0 - m) + sw * 12, sw * 9, title);
-    fputs("</svg>\n", f);
-    return fclose(f) == 0 ? 0 : -1;
+    in->heap = read_all(path, &in->len);
+    return in->heap != NULL ? 0 : -1;
+}
+
+static void input_close(struct input *in)
+{
+    if (in->map != NULL)
+        munmap(in->map, in->len);
+    free(in->heap);
+    memset(in, 0, sizeof *in);
 }
 
 int cmd_sim(int argc, char **argv)
 {
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
-    int json = 0, exact = 0;
-    double tol = -1.0, feed = -1.0;
+    int json = 0, exact = 0, laser = 0;
+    double tol = -1.0, feed = -1.0, svg_tol = 0.01, pen_z = NAN;
     int axes_opt = 0, use_fault = 0;
     static struct pk_gpiod_mock fault;
     for (int i = 1; i < argc; i++) {
@@ -275,6 +344,21 @@ int cmd_sim(int argc, char **argv)
             tol = strtod(argv[++i], NULL);
         } else if (!strcmp(a, "--feed") && more) {
             feed = strtod(argv[++i], NULL);
+        } else if (!strcmp(a, "--svg-tolerance") && more) {
+            svg_tol = strtod(argv[++i], NULL);
+            if (!(svg_tol > 0.0)) {
+                fprintf(stderr, "plotkin sim: --svg-tolerance takes a positive number of mm\n");
+                return 2;
+            }
+        } else if (!strcmp(a, "--pen-z") && more) {
+            char *end;
+            pen_z = strtod(argv[++i], &end);
+            if (*end != '\0' || !isfinite(pen_z)) {
+                fprintf(stderr, "plotkin sim: --pen-z takes a height in mm\n");
+                return 2;
+            }
+        } else if (!strcmp(a, "--laser")) {
+            laser = 1;
         } else if (!strcmp(a, "--inject") && more) {
             const char *v = argv[++i];
             if (!strcmp(v, "open"))
@@ -347,24 +431,44 @@ int cmd_sim(int argc, char **argv)
         cfg.polyline_feed = feed;
     if (axes_opt != 0)
         cfg.axes = (unsigned)axes_opt;
+    if (laser)
+        cfg.laser_mode = 1;
+    if (!isnan(pen_z)) {
+        cfg.pen_z_on = 1;
+        cfg.pen_z_mm = pen_z;
+    }
 
-    size_t len;
-    char *text = read_all(file, &len);
-    if (text == NULL) {
+    static struct input in;
+    if (input_open(&in, file) != 0) {
         fprintf(stderr, "plotkin sim: %s: %s\n", file, strerror(errno ? errno : EIO));
         return 2;
     }
-    int is_poly = 0;
-    char *gcode = pk_sim_polyline_to_gcode(text, cfg.polyline_feed, &is_poly);
-    if (gcode != NULL) {
-        free(text);
-        text = gcode;
-        len = strlen(text);
+    const char *text = in.map != NULL ? in.map : in.heap;
+    size_t len = in.len;
+    char *gcode = NULL;
+    if (in.heap != NULL) {
+        int is_poly = 0;
+        gcode = pk_sim_polyline_to_gcode(in.heap, cfg.polyline_feed, &is_poly);
+        if (gcode != NULL) {
+            text = gcode;
+            len = strlen(text);
+        }
     }
 
     static struct pk_sim_result r;
+    static struct pk_svg drawing;
     struct pk_sim_opts o = { .chip = "plotkin-sim0", .cfg = &cfg, .program = text, .len = len,
-                             .lim = lim, .progress = isatty(2) ? stderr : NULL };
+                             .lim = lim, .progress = isatty(2) ? stderr : NULL,
+                             .input_read = input_read, .input_arg = &in };
+    if (svg != NULL) {
+        if (pk_svg_open(&drawing, svg_tol * 1000.0) != 0) {
+            fprintf(stderr, "plotkin sim: no temporary file for the drawing: %s\n", strerror(errno));
+            input_close(&in);
+            free(gcode);
+            return 2;
+        }
+        o.svg = &drawing;
+    }
     if (use_fault)
         o.fault = &fault;
     FILE *tf = NULL;
@@ -372,7 +476,10 @@ int cmd_sim(int argc, char **argv)
         tf = fopen(trace, "w");
         if (tf == NULL) {
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
-            free(text);
+            if (svg != NULL)
+                pk_svg_discard(&drawing);
+            input_close(&in);
+            free(gcode);
             return 2;
         }
         o.trace_csv = tf;
@@ -392,10 +499,11 @@ int cmd_sim(int argc, char **argv)
             pk_sim_print_summary(stdout, &r, axes, &cfg, driver);
         }
         const char *base = strrchr(file, '/') ? strrchr(file, '/') + 1 : file;
-        if (svg != NULL && write_svg(svg, &r, base) != 0) {
+        if (svg != NULL && pk_svg_close(&drawing, svg, base) != 0) {
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", svg, strerror(errno));
             status = 1;
         }
+        svg = NULL;
         if (tf != NULL && (ferror(tf) || fclose(tf) != 0)) {
             fprintf(stderr, "plotkin sim: cannot write %s: %s\n", trace, strerror(errno));
             status = 1;
@@ -406,7 +514,10 @@ int cmd_sim(int argc, char **argv)
     }
     if (tf != NULL)
         fclose(tf);
+    if (svg != NULL)
+        pk_svg_discard(&drawing);
     pk_sim_result_free(&r);
-    free(text);
+    input_close(&in);
+    free(gcode);
     return status;
 }

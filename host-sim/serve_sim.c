@@ -73,8 +73,7 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
     memset(s, 0, sizeof *s);
     pk_sim_cfg_default(&s->cfg);
     struct pk_sim_opts o = { .chip = chip, .cfg = &s->cfg, .program = "", .len = 0, .lim = *lim,
-                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s,
-                             .no_path = 1 };
+                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s };
     if (pk_sim_start(&o, &s->r) != 0)
         return -1;
     /* A server is never "stuck": it waits for its sender as long as it takes. */

@@ -91,6 +91,8 @@ void pk_sim_cfg_default(struct pk_sim_cfg *c)
     pk_sim_cfg_from_grbl(c, &s);
     c->axes = PK_AXES;
     c->polyline_feed = 3000.0;
+    c->laser_mode = 0;
+    c->pen_z_on = 0;
     c->tick_hz = 1000000u;
 }
 
@@ -105,11 +107,46 @@ static int failf(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
+void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out)
+{
+    out->mode = c->laser_mode ? PK_PEN_LASER : c->pen_z_on ? PK_PEN_Z : PK_PEN_TOOL;
+    out->z_down_um = c->pen_z_mm * 1000.0;
+}
+
+/* $32 (laser mode) and $208 (pen-down height): how the simulator reads a
+ * drawing; not in the firmware's table yet. Returns 1 if handled. */
+static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
+                            size_t errlen, unsigned lineno, int *rc)
+{
+    if (num != 32u && num != 208u)
+        return 0;
+    char *end;
+    double v = strtod(val, &end);
+    while (isspace((unsigned char)*end))
+        end++;
+    if (end == val || *end != '\0' || !isfinite(v)) {
+        *rc = failf(err, errlen, "line %u: $%lu: bad number", lineno, num);
+        return 1;
+    }
+    if (num == 32u) {
+        if (v != 0.0 && v != 1.0) {
+            *rc = failf(err, errlen, "line %u: $32 must be 0 or 1", lineno);
+            return 1;
+        }
+        c->laser_mode = (unsigned)v;
+    } else {
+        c->pen_z_on = 1;
+        c->pen_z_mm = v;
+    }
+    *rc = 0;
+    return 1;
+}
+
 /* Grbl 1.1 settings plotkin has no use for: accepted, ignored. */
 static int grbl_ignored(unsigned long n)
 {
     static const unsigned ign[] = { 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 24, 25, 26, 27,
-                                    30, 31, 32 };
+                                    30, 31 };
     for (size_t i = 0; i < sizeof ign / sizeof ign[0]; i++)
         if (ign[i] == n)
             return 1;
@@ -161,6 +198,12 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
             end++;
         if (*end != '=')
             return failf(err, errlen, "line %u: expected '=' after $%lu", lineno, num);
+        int src;
+        if (sim_only_setting(c, num, end + 1, err, errlen, lineno, &src)) {
+            if (src != 0)
+                return src;
+            continue;
+        }
         if (num > 65535ul || pk_grbl_setting_index((uint32_t)num) < 0) {
             if (!grbl_ignored(num))
                 return failf(err, errlen, "line %u: unknown setting $%lu", lineno, num);
@@ -308,32 +351,37 @@ void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk
         lim.max_um[i] = tu;
     }
     pk_gcode_state_init(&j->gc, &lim, zero);
+    pk_sim_cfg_pen(cfg, &j->pen_cfg);
 }
 
-void pk_sim_job_free(struct pk_sim_job *j)
-{
-    free(j->moves);
-    j->moves = NULL;
-    j->n_moves = j->cap_moves = 0;
-}
+void pk_sim_job_free(struct pk_sim_job *j) { (void)j; }
 
-static void record_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], int rapid)
+/* The observer's primitive for a move from j->cur (µm) to `to` (at least
+ * PK_AXES coordinates; axes beyond PK_AXES stay 0). */
+static void observe_move(struct pk_sim_job *j, const pk_um_t *to, int rapid, const pk_um_t (*ctrl)[2],
+                         int nctrl)
 {
-    if (j->n_moves == j->cap_moves) {
-        size_t cap = j->cap_moves ? j->cap_moves * 2u : 1024u;
-        struct pk_sim_move *p = realloc(j->moves, cap * sizeof *p);
-        if (p == NULL)
-            return;
-        j->moves = p;
-        j->cap_moves = cap;
+    struct pk_path_prim p;
+    double a[3] = { 0, 0, 0 }, b[3] = { 0, 0, 0 };
+    if (j->obs.on_prim == NULL)
+        return;
+    for (int i = 0; i < PK_GC_AXES && i < PK_AXES; i++) {
+        a[i] = (double)j->cur[i];
+        b[i] = (double)to[i];
     }
-    struct pk_sim_move *mv = &j->moves[j->n_moves++];
-    mv->a[0] = j->cur[0];
-    mv->a[1] = j->cur[1];
-    mv->b[0] = to[0];
-    mv->b[1] = to[1];
-    mv->rapid = (uint8_t)rapid;
-    mv->pen = j->pen;
+    pk_path_line(&p, a, b);
+    if (nctrl > 0) {
+        p.kind = nctrl == 1 ? PK_PATH_QUAD : PK_PATH_CUBIC;
+        for (int k = 0; k < nctrl; k++) {
+            p.c[k][0] = (double)ctrl[k][0];
+            p.c[k][1] = (double)ctrl[k][1];
+            p.c[k][2] = a[2]; /* G5/G5.1 are XY curves */
+        }
+    }
+    p.rapid = (uint8_t)rapid;
+    p.line = j->lineno;
+    p.drawn = (uint8_t)pk_pen_prog_drawn(&j->pen_cfg, j->pen, j->s_power, rapid, a[2], b[2]);
+    j->obs.on_prim(j->obs.arg, &p);
 }
 
 static void gc_error(struct pk_sim_job *j, int code) { pk_sim_job_note_error(j, j->lineno, code); }
@@ -348,7 +396,6 @@ static int request_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], pk_gc_u
         f = PK_UM_MIN_MAX;
     int rc = pk_machine_move(j->m, tgt, f, rapid ? PK_MOVE_RAPID : PK_MOVE_FEED);
     if (rc == PK_MOTION_OK) {
-        record_move(j, tgt, rapid);
         for (int i = 0; i < PK_AXES; i++)
             j->cur[i] = tgt[i];
         j->move_requests++;
@@ -412,10 +459,20 @@ static void execute(struct pk_sim_job *j, const struct pk_gc_cmd *c)
             }
             pk_um_t tol = j->m->cfg.smooth.tolerance_um > 0 ? j->m->cfg.smooth.tolerance_um : 10;
             pk_bez_init(&j->bez, (const pk_um_t(*)[2])p, quad, tol);
+            observe_move(j, c->target_um, 0, (const pk_um_t(*)[2])&p[1], quad ? 1 : 2);
             j->bez_active = 1;
             j->bez_feed = c->feed_umpm;
         } else {
-            (void)request_move(j, c->target_um, c->feed_umpm, c->motion == PK_GC_MOT_RAPID);
+            int rapid = c->motion == PK_GC_MOT_RAPID;
+            pk_um_t from[PK_AXES];
+            memcpy(from, j->cur, sizeof from);
+            if (request_move(j, c->target_um, c->feed_umpm, rapid) == PK_MOTION_OK) {
+                pk_um_t to[PK_AXES];
+                memcpy(to, j->cur, sizeof to);
+                memcpy(j->cur, from, sizeof from);
+                observe_move(j, to, rapid, NULL, 0);
+                memcpy(j->cur, to, sizeof to);
+            }
         }
     }
     if (c->what & PK_GC_DO_STOP) {
@@ -448,6 +505,8 @@ static void feed(struct pk_sim_job *j)
         }
         if (pk_machine_room(j->m) < ROOM_PER_LINE)
             return;
+        if (j->obs.room != NULL && j->obs.room(j->obs.arg) == 0u)
+            return; /* the observer is full: let the machine catch up */
         const uint8_t *line;
         size_t n;
         if (!next_line(j, &line, &n)) {
@@ -464,6 +523,8 @@ static void feed(struct pk_sim_job *j)
             gc_error(j, rc);
             continue;
         }
+        if (b.words & PK_GC_WBIT(PK_GC_W_S))
+            j->s_power = (double)b.v[PK_GC_W_S] / 1e6;
         execute(j, &c);
     }
 }
@@ -526,62 +587,4 @@ int pk_sim_job_main(void *arg, uint64_t now)
         return -1;
     }
     return 1;
-}
-
-/* Distance from (px, py) to the segment of move k, µm. */
-static double seg_dist(const struct pk_sim_move *mv, double px, double py)
-{
-    double ax = mv->a[0], ay = mv->a[1], bx = mv->b[0], by = mv->b[1];
-    double dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
-    double t = l2 > 0.0 ? ((px - ax) * dx + (py - ay) * dy) / l2 : 0.0;
-    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-    double ex = ax + t * dx - px, ey = ay + t * dy - py;
-    return sqrt(ex * ex + ey * ey);
-}
-
-double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y)
-{
-    if (j->n_moves == 0u)
-        return -1.0;
-    size_t c = *k < j->n_moves ? *k : j->n_moves - 1u;
-    size_t lo = c >= 64u ? c - 64u : 0u, hi = c + 64u < j->n_moves ? c + 64u : j->n_moves;
-    double best = INFINITY;
-    size_t bk = c;
-    for (size_t q = lo; q < hi; q++) {
-        double d = seg_dist(&j->moves[q], x, y);
-        if (d < best) {
-            best = d;
-            bk = q;
-        }
-    }
-    if (best > 2.0 && j->n_moves > hi) {
-        /* The move executing is never far behind the newest one requested
-         * (the request FIFO, the kernel and the motion queue hold a bounded
-         * number of moves): look there too, in case the window was lured
-         * away by a crossing move. */
-        size_t q0 = j->n_moves > 256u ? j->n_moves - 256u : 0u;
-        for (size_t q = q0 > hi ? q0 : hi; q < j->n_moves; q++) {
-            double d = seg_dist(&j->moves[q], x, y);
-            if (d < best) {
-                best = d;
-                bk = q;
-            }
-        }
-    }
-    *k = bk;
-    return best;
-}
-
-double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y, size_t n)
-{
-    if (j->n_moves == 0u)
-        return -1.0;
-    size_t k = 0;
-    double worst = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        double d = pk_sim_job_point_deviation(j, &k, x[i], y[i]);
-        if (d > worst)
-            worst = d;
-    }
-    return worst;
 }

@@ -12,9 +12,11 @@
  * Machine settings come in Grbl's `$N=value` form (struct pk_sim_cfg, with a
  * typical pen plotter as the default), with the numbers and defaults of the
  * firmware's Grbl engine (firmware/pk_grbl.c), so a `$$` dump from
- * `plotkin serve` or a board can be used as is. The job records the commanded path
- * (every move it requested, pen state included) for the SVG and the
- * deviation check, and counts lines, errors, alarms and executed segments.
+ * `plotkin serve` or a board can be used as is. The job hands every accepted
+ * move, as one exact primitive (a G5/G5.1 curve as its Bézier, not its
+ * chords) with its pen state and line number, to an observer (struct
+ * pk_sim_prim_obs: the programmed path of sim_path.h, the SVG), keeps no
+ * copy of the path, and counts lines, errors, alarms and executed segments.
  *
  * Host-only code (stdio, heap, doubles for settings and reports).
  */
@@ -28,6 +30,8 @@
 #include "pk_gcode.h"
 #include "pk_grbl.h"
 #include "pk_motion.h"
+#include "sim_path.h"
+#include "sim_pen.h"
 
 /** Machine configuration in user units (the `$N=value` settings). */
 struct pk_sim_cfg {
@@ -49,7 +53,16 @@ struct pk_sim_cfg {
     double polyline_feed;          /**< feed for plain polyline files, mm/min, default 3000 */
     int force_smoothing;           /**< 1: ignore G61/G64 in programs (keep $200/$12) */
     uint32_t tick_hz;              /**< simulated timer frequency, default 1 MHz */
+    /* How the program draws (sim_pen.h), for the programmed path and the SVG.
+     * Not in the firmware's $ table yet: read from a config file by
+     * pk_sim_cfg_parse as sim-only settings. */
+    unsigned laser_mode;           /**< $32 Grbl laser mode: 1 = G1 with M3/M4 and S > 0 burns, G0 never */
+    int pen_z_on;                  /**< 1: the pen is down at Z <= pen_z_mm ($208=h; M3/M5 then ignored) */
+    double pen_z_mm;               /**< $208 pen-down height, mm */
 };
+
+/** The pen model of c (sim_pen.h): laser if $32=1, else Z if $208 is set, else the tool line. */
+void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out);
 
 /** A typical pen plotter: the firmware's `$N` defaults (pk_grbl_settings_default). */
 void pk_sim_cfg_default(struct pk_sim_cfg *c);
@@ -84,11 +97,18 @@ int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *out, cha
  */
 char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline);
 
-/** One commanded move (XY, µm). */
-struct pk_sim_move {
-    pk_um_t a[2], b[2];
-    uint8_t rapid;   /**< G0 */
-    uint8_t pen;     /**< pen down while it runs */
+/**
+ * Observer of the programmed path. on_prim gets every accepted move as one
+ * primitive (struct pk_path_prim: a line, or the exact G5/G5.1 Bézier; `drawn`
+ * from sim_pen.h, `line` the line number), in program order, when the line is
+ * accepted. room, if not NULL, says how many more primitives the observer can
+ * take without losing any: the job reads no further line while it is 0 (the
+ * machine goes on running, which makes room). MAIN.
+ */
+struct pk_sim_prim_obs {
+    void (*on_prim)(void *arg, const struct pk_path_prim *p);
+    size_t (*room)(void *arg);
+    void *arg;
 };
 
 struct pk_sim_gc_error { unsigned line; int code; };
@@ -106,7 +126,10 @@ struct pk_sim_job {
     int bez_active;
     pk_gc_umpm_t bez_feed;
     pk_um_t cur[PK_AXES];          /**< last requested position */
-    uint8_t pen;                   /**< pen state commanded */
+    uint8_t pen;                   /**< pen state commanded (M3/M4 on) */
+    double s_power;                /**< S word in force (Grbl starts at 0) */
+    struct pk_pen_cfg pen_cfg;     /**< how moves are classified as drawn */
+    struct pk_sim_prim_obs obs;    /**< the programmed path's observer (all NULL: none) */
     int input_done, end_sent, finished;
     /* results */
     unsigned long lines, move_requests;
@@ -117,8 +140,6 @@ struct pk_sim_job {
     char alarm_text[200];
     unsigned long segments;        /**< LINE blocks the planner queued (executed segments) */
     unsigned long pen_blocks;
-    struct pk_sim_move *moves;     /**< commanded path (heap) */
-    size_t n_moves, cap_moves;
     /* progress */
     FILE *progress;                /**< if not NULL: a progress line now and then */
     uint64_t next_progress_tick;
@@ -140,19 +161,5 @@ void pk_sim_job_poll_machine(struct pk_sim_job *j);
 
 /** Count a G-code error (line number, code); the first 32 are listed. */
 void pk_sim_job_note_error(struct pk_sim_job *j, unsigned line, int code);
-
-/**
- * Largest distance (µm) from any of the points (x[i], y[i]) (µm) to the
- * commanded path (every move, both pen states). Points are matched against a
- * window of moves around the previous match first, and against every move
- * when that finds nothing within 2 µm, so the result is exact and close to
- * linear in the path length. Returns -1 if there are no moves.
- */
-double pk_sim_job_deviation_um(const struct pk_sim_job *j, const double *x, const double *y,
-                               size_t n);
-
-/** One point of the same measure, streaming: *k carries the last match
- *  (start at 0). Returns the distance in µm, or -1 if there are no moves. */
-double pk_sim_job_point_deviation(const struct pk_sim_job *j, size_t *k, double x, double y);
 
 #endif

@@ -1,9 +1,12 @@
 /*
  * sim_report.h — the text summary of a simulated machine's run (host only):
  * smoothing policy, run status, lines, moves and executed segments, steps and
- * final position decoded from the pins, simulated time, max speed and
- * acceleration per axis, path deviation, timing violations against the
- * driver's limits, G-code errors and alarms.
+ * final position decoded from the pins, simulated time, per axis the max
+ * speed over any 16 and any 2 steps and the acceleration (sim_rate.h: each
+ * with the least value the step quantisation allows, and the axes proven
+ * over their limits), the deviation from the programmed path and from the
+ * smoothed curve if fed (sim_path.h: max, where, 95th percentile), timing
+ * violations against the driver's limits, G-code errors and alarms.
  *
  * One printer for every command that runs the simulated machine: `plotkin
  * sim` after a program, `plotkin serve` when it stops (SIGINT/SIGTERM), so

@@ -8,10 +8,19 @@
  * caller's struct pk_sim_result (plus heap arrays freed by
  * pk_sim_result_free), so several runs can coexist in one process.
  *
- * Memory stays bounded on long runs: the pin edges stream into the decoder
- * (and to the CSV file, if asked) as they happen; speeds, accelerations and
- * the path deviation are measured step by step; only a thinned copy of the
- * executed path is kept for the SVG. Tests can ask to keep everything.
+ * Memory stays flat however long the run: the pin edges stream into the
+ * decoder (and to the CSV file, if asked) as they happen; each decoded step
+ * instant (once every axis stepping at that tick has stepped) is measured at
+ * once: speed and acceleration per axis (sim_rate.h), deviation from the
+ * programmed path and from a second reference path (sim_path.h, windowed),
+ * and a point of the SVG (sim_svg.h, streamed). The job hands its programmed
+ * primitives to the path as it accepts them (struct pk_sim_prim_obs) and
+ * waits while the path's window is full. Steps convert to millimetres with
+ * the steps/mm in force when they are made (the machine's configuration at
+ * that tick), so a `$100=` change in `plotkin serve` shows the right speeds.
+ * What grows: the list of timing violations, capped at PK_VIOL_KEEP entries
+ * (all are counted), and the trace / step event arrays if a test asks to keep
+ * them (keep_trace, keep_events).
  */
 #ifndef PLOTKIN_SIM_RUN_H
 #define PLOTKIN_SIM_RUN_H
@@ -19,6 +28,10 @@
 #include <stdio.h>
 #include "sim_job.h"
 #include "sim_machine.h"
+#include "sim_path.h"
+#include "sim_pen.h"
+#include "sim_rate.h"
+#include "sim_svg.h"
 
 struct pk_sim_opts {
     const char *chip;               /**< mock chip name, unique among live runs */
@@ -29,7 +42,6 @@ struct pk_sim_opts {
     struct pk_timing_limits lim;    /**< driver limits for the checks */
     uint64_t max_ticks;             /**< simulated time limit (0: 24 h) */
     FILE *progress;                 /**< progress lines, or NULL */
-    unsigned rate_window;           /**< steps per speed estimate (0: 16) */
     int keep_trace;                 /**< 1: keep every pin edge in hw.trace.e (tests) */
     int keep_events;                /**< 1: keep every decoded step in dec.ev (tests) */
     FILE *trace_csv;                /**< if not NULL: every pin edge as CSV, as it happens */
@@ -39,13 +51,13 @@ struct pk_sim_opts {
      *  never return PK_SIM_DONE if the run is to go on until the caller stops. */
     pk_sim_main_fn main_fn;
     void *main_arg;
-    int no_path;                    /**< 1: keep no executed path (memory stays flat) */
-};
-
-/** A point of the executed path kept for drawing (thinned to 0.1 mm). */
-struct pk_sim_path_pt {
-    double x_um, y_um;
-    uint8_t pen;
+    struct pk_svg *svg;             /**< if not NULL: draw the run into it (sim_svg.h) */
+    uint32_t path_cap;              /**< window of the programmed path, primitives (0: default) */
+    /** If not NULL: called after each main-loop pass with how far the job has
+     *  read its program (bytes), so a caller that mapped the file can let the
+     *  pages behind go. */
+    void (*input_read)(void *arg, size_t pos);
+    void *input_arg;
 };
 
 struct pk_sim_result {
@@ -55,27 +67,44 @@ struct pk_sim_result {
     struct pk_sim_job job;
     struct pk_decoded dec;          /**< pins decoded as the run goes */
     struct pk_decoder decoder;
-    struct pk_rate_est rate[PK_AXES];
+    struct pk_rate rate[PK_AXES];   /**< speed and acceleration per axis, mm/s, mm/s^2 */
+    struct pk_path prog;            /**< the programmed path and the deviation from it */
+    struct pk_path ref;             /**< a second reference (the smoothed curve), if fed */
+    int ref_on;                     /**< ref is set up (pk_sim_ref_point was called) */
+    struct pk_pen_cfg pen;          /**< how the executed path draws */
     struct pk_motion_cfg mcfg;
     struct pk_gpiod_cfg board;
     int shared_enable;
-    /* executed path, measured as it is decoded */
-    int64_t pos[PK_HAL_MAX_AXES];
-    size_t dev_k;
-    int step_pending;               /**< steps of tick step_t not yet measured */
-    uint64_t step_t;
-    struct pk_sim_path_pt *path;    /**< thinned executed path (heap) */
-    size_t n_path, cap_path;
-    double last_x, last_y;          /**< position before the latest step */
-    int last_pen;
+    /* the executed path, measured as it is decoded (private) */
+    int64_t pos[PK_HAL_MAX_AXES];   /**< steps */
+    double pos_um[PK_AXES];         /**< µm, with the steps/mm in force at each step */
+    double base_um[PK_AXES];        /* position at the last steps/mm change */
+    int64_t base_steps[PK_AXES];
+    pk_spmm_q16_t spmm_q16[PK_AXES]; /* steps/mm in force */
+    int tick_n;                     /* steps of tick tick_t not yet measured */
+    uint64_t tick_t;
+    uint8_t tick_axis[PK_HAL_MAX_AXES * 2];
+    int8_t tick_dir[PK_HAL_MAX_AXES * 2];
+    uint8_t tick_pen;
+    uint64_t last_step_tick;
+    struct pk_hal_ops ops;          /* the firmware's HAL ops, with spindle_write recorded */
+    uint16_t spindle_q16;           /**< spindle / laser output now (0 = off) */
+    uint64_t spindle_writes;        /**< spindle writes the firmware made */
+    int ref_have_last;
+    double ref_last[3];
     int setup_failed;               /**< 1: hardware/machine setup failed (see err) */
     char err[200];
     int run_status;                 /**< enum pk_sim_run_status; -1 while running */
     pk_steps_t fw_steps[PK_AXES];   /**< position the firmware reports */
     uint64_t ticks;                 /**< simulated time at the end */
-    double max_speed_mm_s[PK_AXES];
-    double max_accel_mm_s2[PK_AXES];
-    double deviation_um;            /**< executed vs commanded path (-1: no moves) */
+    /* figures, filled by pk_sim_finish from rate[], prog, ref */
+    double max_speed_mm_s[PK_AXES];  /**< over any 16 steps (rate[a].speed16) */
+    double max_speed2_mm_s[PK_AXES]; /**< over any 2 steps (rate[a].speed2) */
+    double max_accel_mm_s2[PK_AXES]; /**< windowed (rate[a].accel) */
+    double deviation_um;            /**< max deviation from the programmed path (-1: no primitive) */
+    double deviation_p95_um;        /**< its 95th percentile (sim_path.h) */
+    double ref_deviation_um;        /**< the same against ref (-1: not fed) */
+    double ref_deviation_p95_um;
 };
 
 /**
@@ -100,5 +129,16 @@ void pk_sim_result_free(struct pk_sim_result *r);
 
 /** Position (µm) of axis a after the decoded steps of r (from steps/mm). */
 double pk_sim_steps_to_um(const struct pk_sim_result *r, unsigned a, int64_t steps);
+
+/**
+ * The second reference path (e.g. the firmware's smoothed curve): one more
+ * point of it, µm (X Y Z); new_stroke 1 starts a separate piece (no segment
+ * from the previous point). Segments of it are matched like the programmed
+ * path (sim_path.h; a window of 32,768 entries) and reported as "vs smoothed
+ * curve". Returns 0, or -1 if its window could not be allocated. MAIN, during
+ * the run. Memory: up to about 26 MB for the programmed path's window and grid
+ * and 19 MB for this one, touched as they fill.
+ */
+int pk_sim_ref_point(struct pk_sim_result *r, const double p_um[3], int new_stroke, uint32_t line);
 
 #endif

@@ -158,6 +158,10 @@ static int push_ev(struct pk_decoded *d, size_t *cap, struct pk_step_event ev)
 
 static int push_viol(struct pk_decoded *d, size_t *cap, struct pk_violation v)
 {
+    if (d->n_viol >= PK_VIOL_KEEP) {
+        d->n_viol++; /* counted, not kept: memory stays bounded */
+        return 0;
+    }
     if (d->n_viol == *cap) {
         size_t c = *cap ? *cap * 2u : 64u;
         struct pk_violation *p = realloc(d->viol, c * sizeof *p);
@@ -291,57 +295,4 @@ void pk_decoded_free(struct pk_decoded *d)
     d->ev = NULL;
     d->viol = NULL;
     d->n_ev = d->n_viol = 0;
-}
-
-void pk_rate_init(struct pk_rate_est *r, uint32_t tick_hz, unsigned window)
-{
-    memset(r, 0, sizeof *r);
-    r->tick_hz = tick_hz;
-    r->w = window < 1u ? 1u : window > PK_RATE_WINDOW_MAX ? PK_RATE_WINDOW_MAX : window;
-}
-
-void pk_rate_step(struct pk_rate_est *r, uint64_t t, int dir)
-{
-    const unsigned ring = 2u * PK_RATE_WINDOW_MAX + 1u, w = r->w;
-    const double hz = (double)r->tick_hz;
-    const uint64_t pause = (uint64_t)(r->tick_hz / 20u) * w; /* 50 ms per step of the window */
-    r->pos += dir;
-    unsigned j = (unsigned)(r->n % ring);
-    r->t[j] = t;
-    r->p[j] = r->pos;
-    r->n++;
-    if (r->n <= w)
-        return;
-    /* speed over the last w steps: samples j-w .. j */
-    unsigned jw = (unsigned)((r->n - 1u - w) % ring);
-    uint64_t dt = t - r->t[jw];
-    if (dt == 0u || dt > pause)
-        return;
-    double v = (double)(r->pos - r->p[jw]) * hz / (double)dt;
-    if (fabs(v) > r->max_speed)
-        r->max_speed = fabs(v);
-    if (r->n <= 2u * w)
-        return;
-    /* and over the w before: samples j-2w .. j-w */
-    unsigned j2w = (unsigned)((r->n - 1u - 2u * w) % ring);
-    uint64_t dt0 = r->t[jw] - r->t[j2w];
-    if (dt0 == 0u || dt0 > pause)
-        return;
-    double v0 = (double)(r->p[jw] - r->p[j2w]) * hz / (double)dt0;
-    double tc = ((double)t - (double)r->t[j2w]) / 2.0 / hz;
-    double acc = fabs(v - v0) / tc;
-    if (acc > r->max_accel)
-        r->max_accel = acc;
-}
-
-void pk_decode_axis_rates(const struct pk_decoded *d, unsigned axis, uint32_t tick_hz,
-                          unsigned window, double *max_speed, double *max_accel)
-{
-    struct pk_rate_est r;
-    pk_rate_init(&r, tick_hz, window);
-    for (size_t i = 0; i < d->n_ev; i++)
-        if (d->ev[i].axis == axis)
-            pk_rate_step(&r, d->ev[i].t, d->ev[i].dir);
-    *max_speed = r.max_speed;
-    *max_accel = r.max_accel;
 }

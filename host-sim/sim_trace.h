@@ -20,6 +20,8 @@
  *   - direction hold: step activation to the next direction change >= dir_hold_ns,
  * and reports every violation, with time, axis, measured and required ns.
  *
+ * Speeds and accelerations from the decoded steps: sim_rate.h.
+ *
  * Host-only code (heap, stdio, doubles are fine here).
  */
 #ifndef PLOTKIN_SIM_TRACE_H
@@ -104,6 +106,9 @@ struct pk_violation {
     uint32_t limit_ns; /**< required minimum */
 };
 
+/** Violations kept in struct pk_decoded.viol (the rest are only counted). */
+#define PK_VIOL_KEEP 10000u
+
 /** One decoded step. */
 struct pk_step_event {
     uint64_t t;
@@ -126,8 +131,8 @@ struct pk_decoded {
     uint64_t steps[PK_HAL_MAX_AXES];   /**< pulses per axis */
     struct pk_step_event *ev;          /**< every step, in time order (heap) */
     size_t n_ev;
-    struct pk_violation *viol;         /**< every violation, in time order (heap) */
-    size_t n_viol;
+    struct pk_violation *viol;         /**< the first PK_VIOL_KEEP violations, in time order (heap) */
+    size_t n_viol;                     /**< violations found (all counted; min(n_viol, PK_VIOL_KEEP) kept) */
     uint64_t steps_while_disabled;     /**< steps while the axis driver was disabled */
     uint64_t t_last;                   /**< tick of the last edge */
     uint8_t pen;                       /**< final logical pen level */
@@ -164,32 +169,5 @@ void pk_decoded_free(struct pk_decoded *d);
 
 /** "min high", "min low", "dir setup", "dir hold". */
 const char *pk_violation_name(enum pk_violation_kind k);
-
-/**
- * Highest speed (steps/s) and acceleration (steps/s^2) of one axis, estimated
- * from its step times. Speed: `window` steps over the time they took (signed
- * by direction). Acceleration: the change of that speed between two
- * consecutive runs of `window` steps, over the time between their centres.
- * A window larger than 1 averages out the interval jitter that a step
- * generator's time quantisation (DDA/Bresenham) puts on a slow axis; window 1
- * gives the raw interval-to-interval figures. Runs that contain a pause of
- * more than 50 ms are skipped (the axis stopped, not decelerated).
- */
-void pk_decode_axis_rates(const struct pk_decoded *d, unsigned axis, uint32_t tick_hz,
-                          unsigned window, double *max_speed, double *max_accel);
-
-/** The same estimate, streaming: one per axis, fed each step of its axis. */
-#define PK_RATE_WINDOW_MAX 64
-struct pk_rate_est {
-    uint32_t tick_hz;
-    unsigned w;                                /**< window, 1..PK_RATE_WINDOW_MAX */
-    uint64_t t[2 * PK_RATE_WINDOW_MAX + 1];    /**< ring of the last 2w+1 steps */
-    int64_t p[2 * PK_RATE_WINDOW_MAX + 1];
-    uint64_t n;                                /**< steps seen */
-    int64_t pos;
-    double max_speed, max_accel;               /**< steps/s, steps/s^2 */
-};
-void pk_rate_init(struct pk_rate_est *r, uint32_t tick_hz, unsigned window);
-void pk_rate_step(struct pk_rate_est *r, uint64_t t, int dir);
 
 #endif

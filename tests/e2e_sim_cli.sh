@@ -29,8 +29,12 @@ assert all(len(j[k]) == n for k in ["final_steps", "final_mm", "max_speed_mm_s",
 assert j["timing_violations"] == 0 and j["errors"] == 0 and j["alarms"] == 0
 assert j["final_steps"] == [0] * n and j["final_steps"] == j["firmware_steps"]
 assert j["sim_time_s"] > 1 and j["segments"] > j["moves"] / 2
-# max rate 6000 mm/min = 100 mm/s; the estimate averages 16 steps
+# max rate 6000 mm/min = 100 mm/s: no speed proven above it (16 and 2 steps)
+assert all(v <= 100.0 for v in j["max_speed_proven_mm_s"] + j["max_speed2_proven_mm_s"]), j
 assert all(v <= 100.0 * 1.01 for v in j["max_speed_mm_s"]), j["max_speed_mm_s"]
+# the deviation figures and where
+assert 0 <= j["deviation_p95_mm"] <= j["max_deviation_mm"] and j["deviation_line"] > 0
+assert j["deviation_points"] > 1000 and j["path_forced_drops"] == 0 and j["path_primitives"] == j["moves"]
 PYEOF'
 check "--svg writes well-formed SVG with the commanded and the executed path" \
   '$PY -c "import sys,xml.etree.ElementTree as E; r=E.parse(sys.argv[1]).getroot(); p=[e for e in r.iter() if e.tag.endswith(\"path\")]; sys.exit(0 if len(p) > 20 and any(\"stroke-dasharray\" in e.attrib for e in p) else 1)" "$tmp/ex.svg"'
@@ -69,6 +73,51 @@ check "a failing line request stops the run at start with a clear error" \
 $P sim "$EX" --inject set:2000 --json >"$tmp/f.json" 2>/dev/null; rc=$?
 check "a failing write mid-run raises one alarm; the position is the pulses emitted" \
   '[[ $rc -eq 1 ]] && $PY -c "import json,sys; j=json.load(open(sys.argv[1])); sys.exit(0 if j[\"alarms\"]==1 and \"gpiod: set\" in j[\"alarm_text\"] and j[\"final_steps\"]==j[\"firmware_steps\"] and 0<sum(j[\"steps\"])<100000 else 1)" "$tmp/f.json"'
+
+# Pen state drawn right: a plotter lifting its pen with Z, and a laser file
+# (power in S words, switched on once with M3 S0). The SVG's path elements
+# are classed ps/pt (programmed stroke/travel) and es/et (executed).
+cat >"$tmp/svgcheck.py" <<"PYEOF"
+import math, re, sys, xml.etree.ElementTree as E
+svg, spec = sys.argv[1], sys.argv[2]
+polys = {"ps": [], "pt": [], "es": [], "et": []}
+for e in E.parse(svg).getroot().iter():
+    if e.tag.endswith("path"):
+        nums = [float(v) for v in re.findall(r"-?[0-9.]+", e.attrib["d"])]
+        polys[e.attrib["class"]].append([(nums[i], -nums[i + 1]) for i in range(0, len(nums), 2)])
+def length(c):
+    return sum(math.dist(p[i], p[i + 1]) for p in polys[c] for i in range(len(p) - 1))
+def seg(p, a, b):
+    dx, dy = b[0] - a[0], b[1] - a[1]; L2 = dx * dx + dy * dy
+    t = max(0, min(1, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / L2)) if L2 else 0
+    return math.dist(p, (a[0] + t * dx, a[1] + t * dy))
+strokes = [((10, 10), (30, 10)), ((30, 10), (30, 30)), ((50, 10), (70, 10))]
+def on_strokes(c, tol):
+    return all(min(seg(q, a, b) for a, b in strokes) <= tol
+               for p in polys[c] for q in p if len(p) > 1)
+travel = float(spec)
+ok = (abs(length("ps") - 60) < 1e-3 and on_strokes("ps", 1e-3) and abs(length("pt") - travel) < 1e-3)
+if len(sys.argv) > 3:  # the executed path too (within a step and the drawing's 0.01 mm)
+    ok = ok and abs(length("es") - 60) < 0.5 and on_strokes("es", 0.03) and abs(length("et") - travel) < 0.5
+if not ok:
+    print({k: round(length(k), 4) for k in polys}, file=sys.stderr)
+sys.exit(0 if ok else 1)
+PYEOF
+printf 'G21 G90\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F300\nG1 X30 Y10 F1200\nG1 X30 Y30\nG0 Z5\nG0 X50 Y10\nG1 Z-1\nG1 X70 Y10\nG0 Z5\nG0 X0 Y0\nM2\n' >"$tmp/zpen.gcode"
+$P sim "$tmp/zpen.gcode" --pen-z 0 --svg "$tmp/z.svg" >/dev/null 2>&1; rc=$?
+check "a Z-pen drawing (--pen-z 0): strokes solid where Z <= 0, travels dashed, programmed and executed" \
+  '[[ $rc -eq 0 ]] && $PY "$tmp/svgcheck.py" "$tmp/z.svg" 113.1371 executed'
+printf '$208=0\n' >"$tmp/zpen.conf"
+$P sim "$tmp/zpen.gcode" --config "$tmp/zpen.conf" --svg "$tmp/z2.svg" >/dev/null 2>&1; rc=$?
+check "\$208=0 in --config reads the same Z-pen drawing" \
+  '[[ $rc -eq 0 ]] && cmp -s "$tmp/z.svg" "$tmp/z2.svg"'
+printf 'G21 G90\nM3 S0\nG0 X10 Y10\nG1 X30 Y10 S800 F1200\nG1 X30 Y30\nG1 X40 Y30 S0\nG0 X50 Y10\nG1 X70 Y10 S500\nM5\nG0 X0 Y0\nM2\n' >"$tmp/laser.gcode"
+$P sim "$tmp/laser.gcode" --laser --svg "$tmp/l.svg" >/dev/null 2>&1; rc=$?
+check "a laser file (--laser): G1 with S > 0 burns, G0 and S0 travel (programmed path)" \
+  '[[ $rc -eq 0 ]] && $PY "$tmp/svgcheck.py" "$tmp/l.svg" 117.2136'
+printf '$32=1\n' >"$tmp/laser.conf"
+$P sim "$tmp/laser.gcode" --config "$tmp/laser.conf" --svg "$tmp/l2.svg" >/dev/null 2>&1; rc=$?
+check "\$32=1 in --config is laser mode too" '[[ $rc -eq 0 ]] && cmp -s "$tmp/l.svg" "$tmp/l2.svg"'
 
 printf 'G21\nG1 X10 F600\nG1 Y10 Q3\nM2\n' >"$tmp/err.gcode"
 $P sim "$tmp/err.gcode" >"$tmp/out" 2>&1; rc=$?

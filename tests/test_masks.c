@@ -100,6 +100,27 @@ bad:
     return 0;
 }
 
+/* A rule as a plain struct, read through the table API (pk_masks.h). */
+struct rule_view {
+    struct pk_rule_info info;
+    struct pk_mask pos_uniform, tan_uniform, pos_end[4], tan_end[4];
+};
+
+static int rule_load(unsigned scheme, unsigned degree, unsigned closed, unsigned ends, struct rule_view *v)
+{
+    const int32_t *r = pk_limit_rule_get(scheme, degree, closed, ends);
+    if (r == NULL)
+        return 0;
+    pk_limit_rule_info(r, &v->info);
+    pk_limit_rule_mask(r, 0, &v->pos_uniform);
+    pk_limit_rule_mask(r, 1, &v->tan_uniform);
+    for (unsigned a = 0; a < 4u; a++) {
+        pk_limit_rule_mask(r, 2u + a, &v->pos_end[a]);
+        pk_limit_rule_mask(r, 6u + a, &v->tan_end[a]);
+    }
+    return 1;
+}
+
 /* One limit-stage output computed from the tables: value = num[k] / den. */
 struct lout { i128 num[3]; int64_t den; int has_t; i128 t[3]; };
 
@@ -111,7 +132,7 @@ static void apply(const struct pk_mask *m, const int64_t L[][3], unsigned n, uns
         long i = (long)anchor + m->first + (long)r;
         if (closed) i = ((i % (long)n) + (long)n) % (long)n;
         else if (right) i = (long)n - 1 - i;
-        for (unsigned k = 0; k < dim; k++) num[k] += (i128)m->w[r] * L[i][k];
+        for (unsigned k = 0; k < dim; k++) num[k] += (i128)pk_mask_w(m, r) * L[i][k];
     }
     if (den) *den = m->den;
 }
@@ -119,9 +140,10 @@ static void apply(const struct pk_mask *m, const int64_t L[][3], unsigned n, uns
 /* The limit stage, as tests/vectors/README.md specifies it. Returns the count. */
 static unsigned limit_stage(const struct vcase *c, const int64_t L[][3], unsigned n, struct lout *o)
 {
-    const struct pk_limit_rule *rule = pk_limit_rule_get(c->scheme, c->degree, c->closed, c->ends);
+    struct rule_view rv;
+    const struct rule_view *rule = &rv;
     unsigned cnt = 0;
-    if (!rule || n == 0)
+    if (!rule_load(c->scheme, c->degree, c->closed, c->ends, &rv) || n == 0)
         return 0;
     if (c->closed) {
         for (unsigned a = 0; a < n; a++, cnt++) {
@@ -131,30 +153,30 @@ static unsigned limit_stage(const struct vcase *c, const int64_t L[][3], unsigne
         }
         return cnt;
     }
-    if (n < rule->min_n) {
-        unsigned slots = (rule->edge_anchors && n > 2) ? n - 1 : n;
+    if (n < rule->info.min_n) {
+        unsigned slots = (rule->info.edge_anchors && n > 2) ? n - 1 : n;
         for (unsigned a = 0; a < slots; a++) {
-            const struct pk_mask *p = pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 0);
-            const struct pk_mask *t = pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 1);
-            if (!p)
+            struct pk_mask p, t;
+            if (!pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 0, &p))
                 continue;
-            apply(p, L, n, c->dim, (int)a, 0, 0, o[cnt].num, &o[cnt].den);
-            o[cnt].has_t = t && t->len > 0;
-            if (o[cnt].has_t) apply(t, L, n, c->dim, (int)a, 0, 0, o[cnt].t, NULL);
+            int has_t = pk_limit_small_get(c->scheme, c->degree, c->ends, n, a, 1, &t);
+            apply(&p, L, n, c->dim, (int)a, 0, 0, o[cnt].num, &o[cnt].den);
+            o[cnt].has_t = has_t && t.len > 0;
+            if (o[cnt].has_t) apply(&t, L, n, c->dim, (int)a, 0, 0, o[cnt].t, NULL);
             cnt++;
         }
         return cnt;
     }
-    unsigned A = rule->edge_anchors ? n - 1 : n;
+    unsigned A = rule->info.edge_anchors ? n - 1 : n;
     for (unsigned a = 0; a < A; a++) {
         const struct pk_mask *p, *t;
         int right = 0, at = (int)a;
-        if (a < rule->nend) {
-            if (rule->drop_mask & (1u << a)) continue;
+        if (a < rule->info.nend) {
+            if (rule->info.drop_mask & (1u << a)) continue;
             p = &rule->pos_end[a]; t = &rule->tan_end[a];
-        } else if (A - 1 - a < rule->nend) {
+        } else if (A - 1 - a < rule->info.nend) {
             unsigned b = A - 1 - a;
-            if (rule->drop_mask & (1u << b)) continue;
+            if (rule->info.drop_mask & (1u << b)) continue;
             p = &rule->pos_end[b]; t = &rule->tan_end[b]; right = 1; at = (int)b;
         } else {
             p = &rule->pos_uniform; t = &rule->tan_uniform;
@@ -294,8 +316,9 @@ static int mask_ok(const struct pk_mask *m, int position)
     if (m->len > PK_MASK_MAXLEN || m->den <= 0)
         return 0;
     for (unsigned r = 0; r < m->len; r++) {
-        s += m->w[r];
-        a += m->w[r] < 0 ? -(int64_t)m->w[r] : m->w[r];
+        int64_t w = pk_mask_w(m, r);
+        s += w;
+        a += w < 0 ? -w : w;
     }
     if (a > PK_MASK_ABS_SUM_MAX)
         return 0;
@@ -305,29 +328,30 @@ static int mask_ok(const struct pk_mask *m, int position)
 static void test_every_scheme_and_end_rule_has_valid_masks(void)
 {
     for (unsigned i = 0; i < TH_COUNT(combos); i++) {
-        const struct pk_limit_rule *r = pk_limit_rule_get(combos[i][0], combos[i][1], combos[i][2], combos[i][3]);
-        TH_ASSERT(r != NULL);
-        TH_EXPECT(r->nend <= 4);
+        struct rule_view rv;
+        const struct rule_view *r = &rv;
+        TH_ASSERT(rule_load(combos[i][0], combos[i][1], combos[i][2], combos[i][3], &rv));
+        TH_EXPECT(r->info.nend <= 4);
         TH_EXPECT(mask_ok(&r->pos_uniform, 1));
         TH_EXPECT(r->tan_uniform.len == 0 || mask_ok(&r->tan_uniform, 0));
-        for (unsigned a = 0; a < r->nend; a++) {
-            if (r->drop_mask & (1u << a)) continue;
+        for (unsigned a = 0; a < r->info.nend; a++) {
+            if (r->info.drop_mask & (1u << a)) continue;
             TH_EXPECT(mask_ok(&r->pos_end[a], 1));
             TH_EXPECT(r->tan_end[a].len == 0 || mask_ok(&r->tan_end[a], 0));
         }
-        TH_EXPECT(r->min_n >= 1 && r->min_n <= 9);
+        TH_EXPECT(r->info.min_n >= 1 && r->info.min_n <= 9);
         if (!combos[i][2]) {
-            for (unsigned n = 1; n < r->min_n; n++) {
+            for (unsigned n = 1; n < r->info.min_n; n++) {
                 unsigned found = 0;
                 for (unsigned a = 0; a < n; a++) {
-                    const struct pk_mask *p = pk_limit_small_get(combos[i][0], combos[i][1], combos[i][3], n, a, 0);
-                    const struct pk_mask *t = pk_limit_small_get(combos[i][0], combos[i][1], combos[i][3], n, a, 1);
-                    if (!p) continue;
+                    struct pk_mask p, t;
+                    if (!pk_limit_small_get(combos[i][0], combos[i][1], combos[i][3], n, a, 0, &p)) continue;
                     found++;
-                    TH_EXPECT(mask_ok(p, 1));
-                    TH_EXPECT(t != NULL && (t->len == 0 || mask_ok(t, 0)));
+                    TH_EXPECT(mask_ok(&p, 1));
+                    TH_EXPECT(pk_limit_small_get(combos[i][0], combos[i][1], combos[i][3], n, a, 1, &t) &&
+                              (t.len == 0 || mask_ok(&t, 0)));
                     /* every weight lies inside the short polygon */
-                    TH_EXPECT((int)a + p->first >= 0 && (int)a + p->first + (int)p->len <= (int)n);
+                    TH_EXPECT((int)a + p.first >= 0 && (int)a + p.first + (int)p.len <= (int)n);
                 }
                 /* only `none` can refine a short polygon away completely (2m-D <= 0) */
                 TH_EXPECT(found >= 1 || combos[i][3] == 3);
@@ -343,7 +367,8 @@ static void test_combinations_that_do_not_exist_have_no_rule(void)
     TH_EXPECT(pk_limit_rule_get(0, 0, 0, 3) == NULL);
     TH_EXPECT(pk_limit_rule_get(2, 3, 0, 3) == NULL);
     TH_EXPECT(pk_limit_rule_get(1, 5, 0, 2) != NULL);   /* DLG ignores degree and ends */
-    TH_EXPECT(pk_limit_small_get(0, 3, 2, 1, 1, 0) == NULL); /* slot beyond n */
+    struct pk_mask m;
+    TH_EXPECT(!pk_limit_small_get(0, 3, 2, 1, 1, 0, &m)); /* slot beyond n */
 }
 
 int th_main(int argc, char **argv);

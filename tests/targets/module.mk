@@ -5,7 +5,8 @@
 #                  ATmega328P (-Os, freestanding), fail on heap/stdio/float/
 #                  mutable statics (and software divide on the step path), print
 #                  the size tables, the kernel state sizes and the flash of a
-#                  minimal Chaikin+limit image on Cortex-M0+.
+#                  minimal Chaikin+limit image on Cortex-M0+ (the full kernel
+#                  and the Chaikin+clamped+limit build, to depth 8 and 5).
 #   make qemu-images
 #                  on-target test images (Cortex-M3, mps2-an385, semihosting);
 #                  run by tests/extra/qemu_cortexm.sh inside `make test`.
@@ -62,6 +63,12 @@ $(foreach t,m0plus m4 m3 avr,$(eval $(call tgt_fw_rule,$(t),$(TGT_CC_$(t)),$(TGT
 # the emitters a 2-point window cannot run at compile time).
 TGT_WIN2_EXTRA ?=
 $(eval $(call tgt_fw_rule,m0plus-win2,$(ARM_CC),$(TGT_FLAGS_m0plus) -DPK_WIN=2 $(TGT_WIN2_EXTRA)))
+# The Chaikin + clamped + limit kernel build (compile-time selection, see
+# firmware/pk_refine.h; bench/kernel_sizes.py has every build), 2 axes, to depth
+# 8 and to depth 5 (32-bit values).
+TGT_CHAIKIN_FLAGS := -DPK_AXES=2 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0
+$(eval $(call tgt_fw_rule,m0plus-chaikin,$(ARM_CC),$(TGT_FLAGS_m0plus) $(TGT_CHAIKIN_FLAGS)))
+$(eval $(call tgt_fw_rule,m0plus-chaikin-d5,$(ARM_CC),$(TGT_FLAGS_m0plus) $(TGT_CHAIKIN_FLAGS) -DPK_MAX_DEPTH=5))
 
 TGT_CHECKED := m0plus m4 avr
 
@@ -89,6 +96,8 @@ $(TGT_DIR)/$(1)/chaikin_limit.elf: $(TGT_DIR)/$(1)/obj/img/chaikin_image.o $(TGT
 endef
 $(eval $(call tgt_img_rule,m0plus,$(TGT_FLAGS_m0plus)))
 $(eval $(call tgt_img_rule,m0plus-win2,$(TGT_FLAGS_m0plus) -DPK_WIN=2))
+$(eval $(call tgt_img_rule,m0plus-chaikin,$(TGT_FLAGS_m0plus) $(TGT_CHAIKIN_FLAGS)))
+$(eval $(call tgt_img_rule,m0plus-chaikin-d5,$(TGT_FLAGS_m0plus) $(TGT_CHAIKIN_FLAGS) -DPK_MAX_DEPTH=5))
 
 .PHONY: targets targets-build qemu-images
 targets:
@@ -96,7 +105,8 @@ targets:
 	@$(MAKE) --no-print-directory targets-build
 
 targets-build: $(foreach t,$(TGT_CHECKED),$(call tgt_fw_objs,$(t))) $(TGT_STATE_OBJS) \
-               $(TGT_DIR)/m0plus/chaikin_limit.elf $(TGT_DIR)/m0plus-win2/chaikin_limit.elf
+               $(TGT_DIR)/m0plus/chaikin_limit.elf $(TGT_DIR)/m0plus-win2/chaikin_limit.elf \
+               $(TGT_DIR)/m0plus-chaikin/chaikin_limit.elf $(TGT_DIR)/m0plus-chaikin-d5/chaikin_limit.elf
 	@$(PYTHON3) tests/targets/fwcheck.py \
 	  $(addprefix --step-obj ,$(TARGETS_STEP_OBJS)) $(addprefix --step-func ,$(TARGETS_STEP_FUNCS)) \
 	  --target m0plus:$(ARM_PREFIX):no $(call tgt_fw_objs,m0plus) \
@@ -105,7 +115,9 @@ targets-build: $(foreach t,$(TGT_CHECKED),$(call tgt_fw_objs,$(t))) $(TGT_STATE_
 	@$(PYTHON3) tests/targets/report.py state $(TGT_STATE_OBJS)
 	@$(PYTHON3) tests/targets/report.py image \
 	  "Cortex-M0+ Chaikin+limit image, PK_WIN=5 (default)=$(TGT_DIR)/m0plus/chaikin_limit.map" \
-	  "Cortex-M0+ Chaikin+limit image, PK_WIN=2 (Chaikin-only)=$(TGT_DIR)/m0plus-win2/chaikin_limit.map"
+	  "Cortex-M0+ Chaikin+limit image, PK_WIN=2 (Chaikin-only)=$(TGT_DIR)/m0plus-win2/chaikin_limit.map" \
+	  "Cortex-M0+ Chaikin+limit image, Chaikin+clamped+limit build, 2 axes=$(TGT_DIR)/m0plus-chaikin/chaikin_limit.map" \
+	  "Cortex-M0+ Chaikin+limit image, the same to depth 5=$(TGT_DIR)/m0plus-chaikin-d5/chaikin_limit.map"
 
 # ---- on-target tests (Cortex-M3 under QEMU) ---------------------------------
 # Test programs that read host files cannot run on target: list them here.

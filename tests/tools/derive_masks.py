@@ -1131,8 +1131,9 @@ HEADER_DOC = r"""/*
  *    (a corner) is undefined and given as an empty mask (len 0: output a
  *    zero tangent); at an open end it is the one-sided L1-L0.
  *
- * Weight bounds: every |w| < 2^31 and sum |w| <= PK_MASK_ABS_SUM_MAX, so a
- * mask sum over pk_w8_t points (|L| < 2^30) fits comfortably in int64_t.
+ * Weight bounds: every |w| < 2^31 and sum |w| <= PK_MASK_ABS_SUM_MAX. The
+ * kernel applies the masks to exact level-K points (pk_umf_t, N / 2^F) and
+ * drops fraction bits first only where the sum could leave int64_t.
  * Position masks are exact (den > 0, sum w = den). Tangent masks sum to 0
  * exactly (straight lines give exact tangents); only their direction counts.
  * Rational tangent masks are normalised to give exactly +1 on L_j = j (the
@@ -1145,20 +1146,180 @@ HEADER_DOC = r"""/*
 """
 
 
+def rule_guard(key):
+    """The preprocessor condition under which rule `key` is built (pk_refine.h)."""
+    scheme, D, closed, ends = key
+    what = 'PK_BUILD_DLG' if scheme == 1 else '(PK_BUILD_DEGREES & 0x%02x)' % (1 << D)
+    where = 'PK_BUILD_CLOSED' if closed else ('1' if scheme == 1 else '(PK_BUILD_ENDS & 0x%02x)' % (1 << ends))
+    return '#if %s && %s' % (what, where)
+
+
+def blob_mask(e):
+    """The words of one encoded mask: header (first | len << 8 | den << 16,
+    den 0 meaning 2^24), then the weights."""
+    first, ln, den, w = e
+    if den == Q24:
+        d16 = 0
+    else:
+        assert 0 < den < 65536, den
+        d16 = den
+    assert -128 <= first < 128 and ln < 128
+    h = (first & 0xFF) | (ln << 8) | (d16 << 16)
+    if h >= 2 ** 31:
+        h -= 2 ** 32
+    return [h] + list(w)
+
+
+def c_words(words):
+    return ', '.join(str(x) if x != -2 ** 31 else '(-2147483647 - 1)' for x in words)
+
+
+C_LOOKUPS = """/* Decode the mask whose header word is at p (program memory). */
+static const int32_t *mask_decode(const int32_t *p, struct pk_mask *m)
+{
+    uint32_t h = (uint32_t)PK_ROM_I32(p);
+    uint32_t den = h >> 16;
+    m->first = (int8_t)(uint8_t)(h & 0xFFu);
+    m->len = (uint8_t)((h >> 8) & 0xFFu);
+    m->den = den ? (int32_t)den : (int32_t)PK_MASK_Q24;
+    m->w = p + 1;
+    return p + 1 + m->len;
+}
+
+const int32_t *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends)
+{
+    if (scheme == 1u) {
+        degree = 0u;
+        ends = 0u;
+    }
+    closed = closed ? 1u : 0u;
+    if (closed)
+        ends = 0u;
+    for (const struct pk_rule_entry *e = pk_rules; PK_ROM_U8(&e->scheme) != 255u; e++)
+        if (PK_ROM_U8(&e->scheme) == scheme && PK_ROM_U8(&e->degree) == degree &&
+            PK_ROM_U8(&e->closed) == closed && PK_ROM_U8(&e->ends) == ends)
+            return pk_words + PK_ROM_U16(&e->off);
+    return NULL;
+}
+
+void pk_limit_rule_info(const int32_t *rule, struct pk_rule_info *info)
+{
+    uint32_t w = (uint32_t)PK_ROM_I32(rule);
+    info->edge_anchors = (uint8_t)(w & 0xFFu);
+    info->nend = (uint8_t)((w >> 8) & 0xFFu);
+    info->drop_mask = (uint8_t)((w >> 16) & 0xFFu);
+    info->min_n = (uint8_t)(w >> 24);
+}
+
+void pk_limit_rule_mask(const int32_t *rule, unsigned which, struct pk_mask *m)
+{
+    const int32_t *p = rule + 1;
+    do
+        p = mask_decode(p, m);
+    while (which-- > 0u);
+}
+
+int pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n, unsigned anchor,
+                       unsigned tangent, struct pk_mask *m)
+{
+    if (scheme == 1u) {
+        degree = 0u;
+        ends = 0u;
+    }
+    for (const struct pk_small_entry *e = pk_smalls; PK_ROM_U8(&e->scheme) != 255u; e++) {
+        if (PK_ROM_U8(&e->scheme) != scheme || PK_ROM_U8(&e->degree) != degree ||
+            PK_ROM_U8(&e->ends) != ends || PK_ROM_U8(&e->n) != n)
+            continue;
+        const int32_t *p = pk_words + PK_ROM_U16(&e->off);
+        if (anchor >= (uint32_t)PK_ROM_I32(p))
+            return 0;
+        p++;
+        for (unsigned a = 0;; a++) {
+            int dropped = PK_ROM_I32(p) == -1;
+            if (a == anchor) {
+                if (dropped)
+                    return 0;
+                p = mask_decode(p, m);
+                if (tangent)
+                    (void)mask_decode(p, m);
+                return 1;
+            }
+            if (dropped) {
+                p++;
+            } else {
+                p = mask_decode(p, m);
+                p = mask_decode(p, m);
+            }
+        }
+    }
+    return 0;
+}"""
+
+H_API = """/** One mask, as read from the tables: value = sum_r w(r) * L[anchor + first + r] / den. */
+struct pk_mask {
+    int8_t first;              /**< index of w[0] relative to the anchor (e.g. -1) */
+    uint8_t len;               /**< number of weights (0: undefined tangent: output zero) */
+    int32_t den;               /**< > 0. Position masks: exact, sum w = den. Tangent masks:
+                                    direction only (sum w = 0); den is the exact rational's
+                                    denominator, or 1<<24 if irrational (w rounded) */
+    const int32_t *w;          /**< the len weights, in program memory: read with pk_mask_w */
+};
+
+/** Weight k of mask m. */
+static inline int32_t pk_mask_w(const struct pk_mask *m, unsigned k)
+{
+    return PK_ROM_I32(&m->w[k]);
+}
+
+/** The fixed part of a limit rule. */
+struct pk_rule_info {
+    uint8_t edge_anchors;      /**< 1: anchors are edges (even D), 0: vertices */
+    uint8_t nend;              /**< anchors 0..nend-1 from each end use their own masks */
+    uint8_t drop_mask;         /**< bit a set: end anchor a (from either end) is dropped (duplicate limit point) */
+    uint8_t min_n;             /**< smallest polygon size for which uniform + end masks are valid without overlap */
+};
+
+/**
+ * Limit rule lookup. scheme 0 = B-spline (degree 1..7), 1 = DLG (degree
+ * ignored); ends 1 clamped, 2 replace, 3 none (open only; DLG ignores it);
+ * closed ignores ends. Closed rules have nend 0 and min_n 1: apply the
+ * uniform masks at every anchor with indices taken modulo n (weights of a
+ * stencil wider than n wrap more than once).
+ * @return the rule (an opaque table in program memory), or NULL if that
+ *         combination does not exist or is not built (PK_BUILD_*).
+ * Calling context: any (pure table lookup).
+ */
+const int32_t *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
+
+/** The rule's fixed part. */
+void pk_limit_rule_info(const int32_t *rule, struct pk_rule_info *info);
+
+/**
+ * Mask `which` of a rule: 0 uniform position, 1 uniform tangent, 2 + a the
+ * position mask of end anchor a (a < 4; the left end, the right end is its
+ * mirror image), 6 + a its tangent mask.
+ */
+void pk_limit_rule_mask(const int32_t *rule, unsigned which, struct pk_mask *m);
+
+/**
+ * Masks for a short open polygon, n < min_n. Slots 0..A-1 (A = the anchor
+ * count: n vertices, or n-1 edges for even D; but A = n when n <= 2, where
+ * the polygon's end points are the outputs) are output positions in polygon
+ * order; call for every slot and emit the ones that exist in order. first
+ * is relative to the slot.
+ * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
+ * @return 1 with *m filled, or 0: slot dropped / not derived / not built.
+ * Calling context: any (pure table lookup).
+ */
+int pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n, unsigned anchor,
+                       unsigned tangent, struct pk_mask *m);
+
+#endif"""
+
+
 def emit(outdir, rules):
-    pool = []
-    pool_idx = {}
-
-    def pidx(e):
-        k = c_mask(e)
-        if k not in pool_idx:
-            pool_idx[k] = len(pool)
-            pool.append(k)
-        return pool_idx[k]
-
-    rule_rows, small_sets, small_slots = [], [], []
+    rule_rows, small_rows = [], []
     abs_max = 0
-    irr_any = []
     for r in rules:
         key = rule_key(r)
         up = enc(r.upos, 0)
@@ -1178,171 +1339,95 @@ def emit(outdir, rules):
             te.append(enc(None, 0))
         for e in [up, ut] + pe + te:
             abs_max = max(abs_max, sum(abs(x) for x in e[3]))
-        rule_rows.append((key, r, up, ut, pe, te, drop))
+        info = (1 if r.edge else 0) | (len(r.end) << 8) | (drop << 16) | (r.min_n << 24)
+        words = [info]
+        for e in [up, ut] + pe + te:
+            words += blob_mask(e)
+        rule_rows.append((key, r, words))
         for n in sorted(r.small):
             slots = r.small[n]
-            first = len(small_slots)
-            for a, s in enumerate(slots):
-                if s is None:
-                    small_slots.append((0xFFFF, 0xFFFF))
+            sw = [len(slots)]
+            for a, sl in enumerate(slots):
+                if sl is None:
+                    sw.append(-1)
                     continue
-                irr = False
-                if s[1] is not None and any(
-                        v.denominator > 2 ** 40 for v in s[1].values()):
-                    irr = True
-                ep, et = enc(s[0], a), enc(s[1], a, irr, primitive=not irr)
+                irr = sl[1] is not None and any(v.denominator > 2 ** 40 for v in sl[1].values())
+                ep, et = enc(sl[0], a), enc(sl[1], a, irr, primitive=not irr)
                 for e in (ep, et):
                     abs_max = max(abs_max, sum(abs(x) for x in e[3]))
-                small_slots.append((pidx(ep), pidx(et)))
-            small_sets.append((key, n, first, len(slots)))
+                sw += blob_mask(ep) + blob_mask(et)
+            small_rows.append((key, n, sw))
     # ---- header ----
     h = [HEADER_DOC.rstrip('\n')]
     for r in rules:
         for line in describe_rule(r):
             h.append(' *   ' + line)
     h.append(' */')
-    h.append('#ifndef PLOTKIN_PK_MASKS_H\n#define PLOTKIN_PK_MASKS_H\n\n#include <stdint.h>\n')
+    h.append('#ifndef PLOTKIN_PK_MASKS_H\n#define PLOTKIN_PK_MASKS_H\n\n#include <stdint.h>\n#include "pk_rom.h"\n')
     h.append('/** Most weights in one mask. */\n#define PK_MASK_MAXLEN %d' % MAXLEN)
     h.append('/** Largest sum of |w| over any mask in the tables. */\n'
              '#define PK_MASK_ABS_SUM_MAX %dL' % abs_max)
     h.append('/** Denominator of the irrational (rounded) tangent masks. */\n'
              '#define PK_MASK_Q24 (1L << 24)\n')
-    h.append('''/** One mask: value = sum_r w[r] * L[anchor + first + r] / den. */
-struct pk_mask {
-    int8_t first;              /**< index of w[0] relative to the anchor (e.g. -1) */
-    uint8_t len;               /**< number of weights used (0: undefined tangent: output zero) */
-    int32_t den;               /**< > 0. Position masks: exact, sum w = den. Tangent masks:
-                                    direction only (sum w = 0); den is the exact rational's
-                                    denominator, or 1<<24 if irrational (w rounded) */
-    int32_t w[PK_MASK_MAXLEN];
-};
-
-/** Limit rule of one scheme/degree/closed/ends combination. */
-struct pk_limit_rule {
-    uint8_t edge_anchors;      /**< 1: anchors are edges (even D), 0: vertices */
-    uint8_t nend;              /**< anchors 0..nend-1 from each end use pos_end/tan_end */
-    uint8_t drop_mask;         /**< bit a set: end anchor a (from either end) is dropped (duplicate limit point) */
-    uint8_t min_n;             /**< smallest polygon size for which uniform + end masks are valid without overlap */
-    struct pk_mask pos_uniform, tan_uniform;
-    struct pk_mask pos_end[4], tan_end[4];   /**< left end; the right end is the mirror image */
-};
-
-/**
- * Limit rule lookup. scheme 0 = B-spline (degree 1..7), 1 = DLG (degree
- * ignored); ends 1 clamped, 2 replace, 3 none (open only; DLG ignores it);
- * closed ignores ends. Closed rules have nend 0 and min_n 1: apply the
- * uniform masks at every anchor with indices taken modulo n (weights of a
- * stencil wider than n wrap more than once).
- * @return the rule, or NULL if that combination does not exist.
- * Calling context: any (pure table lookup).
- */
-const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends);
-
-/**
- * Masks for a short open polygon, n < rule->min_n. Slots 0..A-1 (A = the
- * anchor count: n vertices, or n-1 edges for even D; but A = n when n <= 2,
- * where the polygon's end points are the outputs) are output positions in
- * polygon order; call for every slot and emit the non-NULL ones in order.
- * first is relative to the slot.
- * @param tangent 0: position mask, 1: tangent mask (len 0: zero tangent)
- * @return the mask, or NULL: slot dropped / not derived.
- * Calling context: any (pure table lookup).
- */
-const struct pk_mask *pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n, unsigned anchor, unsigned tangent);
-
-#endif''')
+    h.append(H_API)
     with open(os.path.join(outdir, 'pk_masks.h'), 'w') as f:
         f.write('\n'.join(h) + '\n')
     # ---- source ----
     c = ['/*', ' * pk_masks.c -- GENERATED by tests/tools/derive_masks.py --emit firmware;',
          ' * do not edit. Constant tables and their lookups (see pk_masks.h).', ' *',
-         ' * Flash: about 16 KB on a 32-bit target with every rule; build with',
-         ' * -DPK_MASKS_MAX_DEGREE=3 to keep only degrees 1..3 and DLG (the lookups then',
-         ' * return NULL for higher degrees, and the kernel reports PK_ENOTSUP).', ' */',
-         '#include <stddef.h>', '#include "pk_masks.h"', '',
-         '#ifndef PK_MASKS_MAX_DEGREE', '#define PK_MASKS_MAX_DEGREE 7', '#endif', '',
-         'struct pk_rule_entry {', '    uint8_t scheme, degree, closed, ends;',
-         '    struct pk_limit_rule rule;', '};', '',
-         'static const struct pk_rule_entry pk_rules[] = {']
-    def guard(D):
-        return '#if PK_MASKS_MAX_DEGREE >= %d' % D if D > 3 else None
-
-    for key, r, up, ut, pe, te, drop in rule_rows:
-        g = guard(r.D)
-        if g:
-            c.append(g)
-        c.append('    /* %s */' % r.name())
-        c.append('    {%d, %d, %d, %d, {%d, %d, 0x%02x, %d,' % (key + (1 if r.edge else 0, len(r.end), drop, r.min_n)))
-        c.append('        %s,' % c_mask(up))
-        c.append('        %s,' % c_mask(ut))
-        c.append('        {%s},' % ', '.join(c_mask(e) for e in pe))
-        c.append('        {%s}}},' % ', '.join(c_mask(e) for e in te))
-        if g:
+         ' * All rules live in one array of 32-bit words in program memory (PK_ROM):',
+         ' * per rule its fixed part, then its ten masks, each a header word (first,',
+         ' * len, den) followed by its weights; per short-polygon set its slot count,',
+         ' * then per slot its position and tangent masks (-1: dropped). A rule is',
+         ' * compiled in only if its scheme, degree, end rule (or closed curves) and the',
+         ' * table-driven limit stage are built (PK_BUILD_*, PK_LIMIT_TABLES in',
+         ' * pk_refine.h): its PK_SZ_ is then its length, else 0, and the index tables',
+         ' * hold word offsets (no pointers: nothing to relocate, nothing in RAM).',
+         ' */', '#include <stddef.h>', '#include "pk_refine.h"', '#include "pk_masks.h"', '']
+    blobs = []  # (guard, name, words, kind, key, n)
+    for key, r, words in rule_rows:
+        nm = r.name().replace(':', '').replace(' ', '_')
+        blobs.append((rule_guard(key), nm, words, 'rule', key, 0))
+    for key, n, sw in small_rows:
+        nm = [b[1] for b in blobs if b[3] == 'rule' and b[4] == key][0] + '_n%d' % n
+        blobs.append((rule_guard(key), nm, sw, 'small', key, n))
+    for g, nm, words, kind, key, n in blobs:
+        c.append('%s && PK_LIMIT_TABLES\n#define PK_SZ_%s %d\n#else\n#define PK_SZ_%s 0\n#endif' % (g, nm, len(words), nm))
+    c.append('\nenum {')
+    prev = None
+    for g, nm, words, kind, key, n in blobs:
+        c.append('    PK_OFF_%s = %s,' % (nm, '0' if prev is None else 'PK_OFF_%s + PK_SZ_%s' % (prev, prev)))
+        prev = nm
+    c.append('    PK_WORDS = PK_OFF_%s + PK_SZ_%s\n};\n' % (prev, prev))
+    c.append('static const int32_t pk_words[PK_WORDS + 1] PK_ROM = {')
+    for g, nm, words, kind, key, n in blobs:
+        c.append('%s && PK_LIMIT_TABLES' % g)
+        c.append('    /* %s */ %s,' % (nm, c_words(words)))
+        c.append('#endif')
+    c.append('    0 /* never empty */\n};\n')
+    c.append('struct pk_rule_entry {\n    uint8_t scheme, degree, closed, ends;\n    uint16_t off;\n};\n')
+    c.append('static const struct pk_rule_entry pk_rules[] PK_ROM = {')
+    for g, nm, words, kind, key, n in blobs:
+        if kind == 'rule':
+            c.append('%s && PK_LIMIT_TABLES' % g)
+            c.append('    {%d, %d, %d, %d, PK_OFF_%s},' % (key + (nm,)))
             c.append('#endif')
-    c.append('};\n')
-    c.append('static const struct pk_mask pk_small_pool[] = {')
-    for k in pool:
-        c.append('    %s,' % k)
-    c.append('};\n')
-    c.append('struct pk_small_set {\n    uint8_t scheme, degree, ends, n;\n    uint16_t slot0;\n    uint8_t nslots;\n};\n')
-    c.append('static const struct pk_small_set pk_small_sets[] = {')
-    for key, n, first, cnt in small_sets:
-        g = guard(key[1])
-        if g:
-            c.append(g)
-        c.append('    {%d, %d, %d, %d, %d, %d},' % (key[0], key[1], key[3], n, first, cnt))
-        if g:
+    c.append('    {255, 0, 0, 0, 0}\n};\n')
+    c.append('struct pk_small_entry {\n    uint8_t scheme, degree, ends, n;\n    uint16_t off;\n};\n')
+    c.append('static const struct pk_small_entry pk_smalls[] PK_ROM = {')
+    for g, nm, words, kind, key, n in blobs:
+        if kind == 'small':
+            c.append('%s && PK_LIMIT_TABLES' % g)
+            c.append('    {%d, %d, %d, %d, PK_OFF_%s},' % (key[0], key[1], key[3], n, nm))
             c.append('#endif')
-    c.append('};\n')
-    c.append('/* {position, tangent} indices into pk_small_pool; 0xFFFF: slot dropped */')
-    c.append('static const uint16_t pk_small_slots[][2] = {')
-    for i in range(0, len(small_slots), 6):
-        c.append('    ' + ' '.join('{%d, %d},' % s for s in small_slots[i:i + 6]))
-    c.append('};\n')
-    c.append('''#define PK_COUNT(a) (sizeof(a) / sizeof((a)[0]))
-
-const struct pk_limit_rule *pk_limit_rule_get(unsigned scheme, unsigned degree, unsigned closed, unsigned ends)
-{
-    size_t i;
-    if (scheme == 1u) {
-        degree = 0u;
-        ends = 0u;
-    }
-    closed = closed ? 1u : 0u;
-    if (closed)
-        ends = 0u;
-    for (i = 0; i < PK_COUNT(pk_rules); i++) {
-        const struct pk_rule_entry *e = &pk_rules[i];
-        if (e->scheme == scheme && e->degree == degree && e->closed == closed && e->ends == ends)
-            return &e->rule;
-    }
-    return NULL;
-}
-
-const struct pk_mask *pk_limit_small_get(unsigned scheme, unsigned degree, unsigned ends, unsigned n,
-                                         unsigned anchor, unsigned tangent)
-{
-    size_t i;
-    if (scheme == 1u) {
-        degree = 0u;
-        ends = 0u;
-    }
-    for (i = 0; i < PK_COUNT(pk_small_sets); i++) {
-        const struct pk_small_set *s = &pk_small_sets[i];
-        if (s->scheme == scheme && s->degree == degree && s->ends == ends && s->n == n) {
-            uint16_t k;
-            if (anchor >= s->nslots)
-                return NULL;
-            k = pk_small_slots[s->slot0 + anchor][tangent ? 1 : 0];
-            return k == 0xFFFFu ? NULL : &pk_small_pool[k];
-        }
-    }
-    return NULL;
-}''')
+    c.append('    {255, 0, 0, 0, 0}\n};\n')
+    c.append(C_LOOKUPS)
     with open(os.path.join(outdir, 'pk_masks.c'), 'w') as f:
         f.write('\n'.join(c) + '\n')
-    print('wrote %s/pk_masks.[ch]: %d rules, %d small sets, %d pooled masks, %d slots; max sum|w| %d' % (
-        outdir, len(rule_rows), len(small_sets), len(pool), len(small_slots), abs_max))
+    nwords = sum(len(b[2]) for b in blobs)
+    assert nwords < 65536
+    print('wrote %s/pk_masks.[ch]: %d rules, %d small sets, %d words of tables (%d bytes); max sum|w| %d' % (
+        outdir, len(rule_rows), len(small_rows), nwords, 4 * nwords, abs_max))
 
 
 # --------------------------------------------------------------------------

@@ -6,9 +6,10 @@ BOARD_MCU   := atmega2560
 BOARD_F_CPU := 16000000UL
 BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
                hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo16.c hal/pk_app.c hal/pk_uart.c
-# Three axes, every scheme the motion core uses (the default PK_WIN), queues
-# sized for 8 KB of RAM.
-BOARD_DEFS  := -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64
+# Three axes, every scheme the motion core uses but degree 7 (PK_WIN=4), depth
+# <= 6 and no limit stage (the kernel's exact level cascade keeps 64-bit values:
+# 8 levels of 5 would not leave the stack room in 8 KB), queues sized for 8 KB.
+BOARD_DEFS  := -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4
 # ATmega2560 with the stock STK500v2 bootloader (8 KB): 262,144 - 8,192 B of
 # flash, 8,192 B of RAM.
 BOARD_FLASH_MAX := 253952

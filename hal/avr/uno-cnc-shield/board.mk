@@ -6,9 +6,11 @@ BOARD_MCU   := atmega328p
 BOARD_F_CPU := 16000000UL
 BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
                hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/pk_app.c hal/pk_uart.c
-# Two axes + pen, Chaikin/B-spline smoothing only (2 points of history per
-# level), short queues: see the size table of `make firmware`.
+# Two axes + pen, Chaikin and the linear B-spline only, clamped ends, open
+# strokes, no limit stage (PK_BUILD_*: what PK_WIN=2 used to allow), short
+# queues: see the size table of `make firmware`.
 BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+               -DPK_BUILD_DEGREES=0x06 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0
 # Shared register save/restore sequences: about 5 % less flash, a few cycles

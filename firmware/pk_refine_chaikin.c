@@ -1,0 +1,305 @@
+/*
+ * pk_refine_chaikin.c — the whole kernel for builds that carry Chaikin with
+ * clamped ends only (PK_CHAIKIN_ONLY: PK_BUILD_DEGREES=0x04, PK_BUILD_DLG=0,
+ * PK_BUILD_ENDS=0x02, PK_BUILD_CLOSED=0), written out for size: the
+ * smallest chips (ATmega328P, Cortex-M0+) run exactly this. In every other
+ * build pk_refine.c and its engines are compiled instead and this file is
+ * empty. tests/e2e_kernel_builds.sh checks that it gives, bit for bit, what
+ * the general kernel gives for the same configurations.
+ *
+ * The closed form is pk_refine_span.c's, for D = 2 and the clamped rule
+ * only (the argument is in pk_refine.c): with n = 2^K, outputs j = 1 .. nL
+ * (L = m - 2 spans) are the steps of V, Δ V, Δ² V, where Δ² changes per
+ * span to w0 Q0 - (w0 + w2) Q1 + w2 Q2 (w0 = 2 on the first span, w2 = 2 on
+ * the last, else 1), framed by P0 and P(m-1). 0..2 points pass through.
+ *
+ * The limit stage is written out from the same state: the anchors are the
+ * edges L(j) L(j+1) of the level-K polygon, j = 0 .. nL; edge j's limit
+ * point is its midpoint (2V + ΔV) / 2, its tangent the edge itself, ΔV —
+ * except the first and last edges, whose limit points are the stroke's end
+ * points P0 and P(m-1) (pk_masks.h, "chaikin clamped").
+ */
+#include "pk_refine_internal.h"
+
+#include <stddef.h>
+
+#if PK_CHAIKIN_ONLY
+
+/* Phases: which run comes next. */
+enum { PH_P0 = 0, PH_FIRST, PH_SPANS, PH_LAST, PH_PASS, PH_DONE = 7 };
+
+static pk_umf_t pow2(unsigned k) { return (pk_umf_t)1 << k; }
+
+static const pk_um_t *pt(const struct pk_refine *r, uint32_t i)
+{
+    return r->e.sp.w[i & (PK_SPAN_WIN - 1u)];
+}
+
+int pk_refine_init(struct pk_refine *r, const struct pk_refine_cfg *cfg)
+{
+    if (r == NULL || cfg == NULL)
+        return PK_EINVAL;
+    struct pk_refine_cfg c = *cfg;
+    if (c.dims == 0u)
+        c.dims = PK_AXES;
+    if (c.scheme > PK_SCHEME_DLG || c.depth > PK_MAX_DEPTH || c.dims < 2u || c.dims > PK_AXES ||
+        c.ends > PK_ENDS_NONE || c.closed > 1u || c.limit > 1u || c.tangents > 1u)
+        return PK_EINVAL;
+    if (c.scheme == PK_SCHEME_BSPLINE && (c.degree < 1u || c.degree > 7u))
+        return PK_EINVAL;
+    if (c.tangents)
+        c.limit = 1;
+    unsigned char *b = (unsigned char *)r;
+    for (size_t i = 0; i < sizeof *r; i++)
+        b[i] = 0;
+    if (c.scheme != PK_SCHEME_BSPLINE || c.degree != 2u || c.closed ||
+        (c.ends != PK_ENDS_DEFAULT && c.ends != PK_ENDS_CLAMPED) || (c.limit && !PK_BUILD_LIMIT))
+        return PK_ENOTSUP;
+    r->cfg = c;
+    r->D = 2;
+    r->ends = PK_ENDS_CLAMPED;
+    r->engine = PK_ENG_SPAN;
+    /* F = 2K; at least 8 in 32-bit builds (a byte move rounds), at least 1
+     * in the others (so that depth 0 rounds as the rest): the input points
+     * are stored times 2^g */
+    unsigned f = 2u * c.depth, g = PK_UMF_BITS == 32 ? (f < 8u ? 8u - f : 0u) : (f ? 0u : 1u);
+    r->e.sp.g = (uint8_t)g;
+    r->e.sp.K = c.depth;
+    r->F = (uint8_t)(f + g);
+    r->half = pow2(r->F - 1u);
+    r->out_left = UINT32_MAX;
+    return PK_OK;
+}
+
+void pk_refine_reset(struct pk_refine *r)
+{
+    struct pk_refine_cfg c = r->cfg;
+    (void)pk_refine_init(r, &c);
+}
+
+int pk_refine_push(struct pk_refine *r, const pk_um_t p[PK_AXES])
+{
+    if (r->finishing)
+        return PK_ESTATE;
+    if (r->in_full)
+        return PK_EBUSY;
+    for (unsigned a = 0; a < r->cfg.dims; a++)
+        if (p[a] > PK_UM_MAX || p[a] < -PK_UM_MAX)
+            return PK_ERANGE;
+    for (unsigned a = 0; a < PK_AXES; a++)
+        r->in[a] = a < r->cfg.dims ? p[a] : 0;
+    if (r->m < UINT32_MAX)
+        r->m++;
+    r->in_full = 1;
+    return PK_OK;
+}
+
+void pk_refine_finish(struct pk_refine *r) { r->finishing = 1; }
+
+/* A run of one fixed point P * 2^F (w holds P * 2^g). */
+static void run_point(struct pk_refine *r, const pk_um_t *p)
+{
+    struct pk_span *sp = &r->e.sp;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        sp->s[0][a] = (pk_umf_t)p[a] * pow2(r->F - sp->g);
+        sp->s[1][a] = 0;
+        sp->s[2][a] = 0;
+    }
+    sp->rem = 1;
+}
+
+/* Δ² of span s: w0 Q0 - (w0 + w2) Q1 + w2 Q2, additions only. */
+static void set_top(struct pk_refine *r, uint32_t s, int left, int right)
+{
+    struct pk_span *sp = &r->e.sp;
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        pk_umf_t x0 = pt(r, s)[a], x1 = pt(r, s + 1u)[a], x2 = pt(r, s + 2u)[a];
+        pk_umf_t t = (x0 - x1) + (x2 - x1);
+        if (left)
+            t += x0 - x1;
+        if (right)
+            t += x2 - x1;
+        sp->s[2][a] = t;
+    }
+}
+
+/* Set up the next run from what has been taken: 1 run ready, 0 need a
+ * point, -1 done. */
+static int next_run(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    const uint32_t T = r->taken, n = (uint32_t)1 << sp->K;
+    const int end = r->finishing && !r->in_full, lim = PK_BUILD_LIMIT && r->cfg.limit;
+    switch (sp->ph) {
+    case PH_P0:
+        if (T < (lim ? 2u : 1u) && !end)
+            return 0;
+        if (T == 0u)
+            return -1;
+        if (end && T <= 2u) { /* 1 or 2 points: as they are */
+            sp->ph = PH_PASS;
+            return next_run(r);
+        }
+        sp->ph = PH_FIRST;
+        run_point(r, pt(r, 0));
+        goto first_point;
+    case PH_FIRST: {
+        if (T < 4u && !end)
+            return 0;
+        if (T < 3u) { /* ended at 2 points: P1 as it is */
+            sp->ph = PH_PASS + 1;
+            return next_run(r);
+        }
+        uint32_t L = end ? T - 2u : 2u; /* 1, or more */
+        for (unsigned a = 0; a < PK_AXES; a++) {
+            pk_umf_t q0 = pt(r, 0)[a], q1 = pt(r, 1)[a], q2 = pt(r, 2)[a];
+            /* j = 1: V = n ((n-1) Q0 + Q1); Δ = 2(n-1)(Q1 - Q0) + (Q2 - Q1) [L = 1: 2(Q2 - Q1)] */
+            sp->s[0][a] = (((pk_umf_t)n - 1) * q0 + q1) * (pk_umf_t)n;
+            sp->s[1][a] = 2 * ((pk_umf_t)n - 1) * (q1 - q0) + (L == 1u ? 2 : 1) * (q2 - q1);
+        }
+        set_top(r, 0, 1, L == 1u);
+        sp->blk = 0;
+        sp->ph = L == 1u ? PH_LAST : PH_SPANS;
+        /* j = 1 .. n - 1, or .. n if this is the last span (limit: the
+         * anchors stop one point before it, at the last edge's start) */
+        sp->rem = (uint16_t)(n - 1u + (L == 1u && !lim ? 1u : 0u));
+        return 1;
+    }
+    case PH_SPANS: {
+        uint32_t s = sp->blk + 1u, ahead = T - s;
+        if (ahead < 4u && !end)
+            return 0;
+        int last = end && ahead == 3u;
+        set_top(r, s, 0, last);
+        sp->blk = s;
+        sp->ph = last ? PH_LAST : PH_SPANS;
+        sp->rem = (uint16_t)(n + (last && !lim ? 1u : 0u));
+        return 1;
+    }
+    case PH_LAST: { /* P(m-1); limit: with the last edge, from L(nL) (the state) to it */
+        pk_umf_t e = pow2(r->F - sp->g);
+        for (unsigned a = 0; a < PK_AXES; a++) {
+            pk_umf_t p = (pk_umf_t)pt(r, T - 1u)[a] * e;
+            sp->s[1][a] = lim ? p - sp->s[0][a] : 0;
+            sp->s[0][a] = p;
+            sp->s[2][a] = 0;
+        }
+        sp->rem = 1;
+        sp->ph = PH_DONE;
+        return 1;
+    }
+    case PH_PASS:
+    case PH_PASS + 1: {
+        uint32_t i = (uint32_t)(sp->ph - PH_PASS);
+        if (i >= T)
+            return -1;
+        sp->ph++;
+        run_point(r, pt(r, i));
+    first_point:
+        /* P0 (and a 2-point stroke's points): the tangent along P1 - P0, the
+         * first edge's direction (L1 - L0 is a power-of-2 multiple of it,
+         * which gives the same unit vector) */
+        if (lim && T >= 2u)
+            for (unsigned a = 0; a < PK_AXES; a++)
+                sp->s[1][a] = (pk_umf_t)pt(r, 1)[a] - pt(r, 0)[a];
+        return 1;
+    }
+    default:
+        return -1;
+    }
+}
+
+/* Take points until a run is ready. */
+static int refill(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    while (sp->rem == 0u) {
+        int st = next_run(r);
+        if (st > 0)
+            continue;
+        if (st < 0)
+            return PK_END;
+        if (!r->in_full)
+            return PK_NEED_INPUT;
+        pk_um_t *w = sp->w[r->taken & (PK_SPAN_WIN - 1u)];
+        for (unsigned a = 0; a < PK_AXES; a++)
+            w[a] = (pk_um_t)((uint32_t)r->in[a] << sp->g);
+        r->in_full = 0;
+        r->taken++;
+    }
+    return PK_OK;
+}
+
+int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
+{
+    struct pk_span *sp = &r->e.sp;
+    if (sp->rem == 0u) {
+        int st = refill(r);
+        if (st != PK_OK) {
+            if (st == PK_END)
+                pk_refine_reset(r);
+            return st;
+        }
+    }
+    sp->rem--;
+    pk_umf_t(*s)[PK_AXES] = sp->s;
+    const unsigned f = r->F;
+    const int lim = PK_BUILD_LIMIT && r->cfg.limit;
+    /* limit: an edge, its midpoint (2 L(j) + ΔV) / 2^(F+1), or (first and
+     * last anchors, ph tells) the end point in s[0]; its tangent s[1] */
+    const int endpoint = sp->ph == PH_FIRST || sp->ph == PH_DONE || sp->ph > PH_PASS;
+#if PK_BUILD_LIMIT
+    int64_t d[PK_AXES];
+#endif
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        out->t[a] = 0;
+#if PK_BUILD_LIMIT
+        d[a] = s[1][a];
+#endif
+        out->p[a] = lim ? (pk_um_t)pk_rshift_round64(2 * (int64_t)s[0][a] + (endpoint ? 0 : s[1][a]), f + 1u)
+                        : pk_umf_round(s[0][a], f, r->half);
+        s[0][a] += s[1][a];
+        s[1][a] += s[2][a];
+    }
+#if PK_BUILD_LIMIT
+    if (r->cfg.tangents)
+        pk_unit_q30(d, r->cfg.dims, out->t);
+#endif
+    return PK_OK;
+}
+
+int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
+                         uint32_t *got)
+{
+    uint32_t k = 0;
+    int st = PK_OK;
+    const unsigned dims = r->cfg.dims;
+    struct pk_refine_out o;
+    while (k < max_points) {
+        /* never past the end: PK_END resets, and must wait for the next call */
+        if (r->e.sp.rem == 0u && (st = refill(r)) != PK_OK)
+            break;
+        (void)pk_refine_pull(r, &o);
+        for (unsigned a = 0; a < dims; a++) {
+            p[(size_t)k * dims + a] = o.p[a];
+            if (t != NULL && r->cfg.tangents)
+                t[(size_t)k * dims + a] = o.t[a];
+        }
+        k++;
+    }
+    *got = k;
+    if (k > 0u || max_points == 0u)
+        return PK_OK;
+    if (st == PK_END)
+        pk_refine_reset(r);
+    return st;
+}
+
+uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)
+{
+    unsigned d = cfg->depth > PK_MAX_DEPTH ? PK_MAX_DEPTH : cfg->depth;
+    uint32_t burst = (cfg->limit || cfg->tangents) ? (uint32_t)PK_LWIN : 0u;
+    return ((cfg->closed ? (uint32_t)(PK_CLOSE_MAX + 1) : 4u) << d) + burst;
+}
+
+#endif
