@@ -28,7 +28,7 @@ SANFLAGS := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined \
             -fno-sanitize-recover=all
 
 FW_SRC   := $(sort $(wildcard firmware/*.c))
-HAL_SRC  := $(sort $(filter-out hal/avr/% hal/arm/% hal/pk_kernel_nolimit.c,$(wildcard hal/*.c) $(wildcard hal/*/*.c)))
+HAL_SRC  := $(sort $(filter-out hal/avr/% hal/arm/%,$(wildcard hal/*.c) $(wildcard hal/*/*.c)))
 SIM_SRC  := $(sort $(filter-out host-sim/main.c,$(wildcard host-sim/*.c)))
 TH_SRC   := tests/th.c tests/th_host.c
 TEST_SRC := $(sort $(wildcard tests/test_*.c))

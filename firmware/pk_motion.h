@@ -66,10 +66,10 @@
 #include "pk_stepgen.h"
 #include "pk_stroke.h"
 
-/** 1 when this build's kernel can run DLG (PK_WIN >= 4), the only scheme
- *  whose path leaves the hull of its control points (the soft-limit check
- *  then bounds it, pk_motion.c). */
-#define PK_MOTION_DLG (PK_WIN >= 4)
+/** 1 when this build's kernel can run DLG (built in, and PK_WIN >= 4 for its
+ *  window), the only scheme whose path leaves the hull of its control points
+ *  (the soft-limit check then bounds it, pk_motion.c). */
+#define PK_MOTION_DLG (PK_BUILD_DLG && PK_WIN >= 4)
 
 /** Requests (moves, pen, dwell, mode changes, end) buffered before poll. */
 #ifndef PK_MACHINE_INQ
