@@ -1,25 +1,31 @@
 /*
  * pk_gcode.c — G-code line parser and block interpreter (see pk_gcode.h).
  *
- * The parser walks the line once with a cursor that hands out "significant"
- * bytes: upper-cased, with spaces, tabs and comments skipped, so whitespace or
- * a comment may sit anywhere, even inside a number ("X1 2.5" is X12.5, as in
- * Grbl, which strips them before parsing). Numbers are read digit by digit
- * into decimal fixed point (pk_gc_u6_t) with no float and no strtod: at most
- * 9 integer digits, 6 decimals kept, the 7th rounds (ties away from zero).
+ * The parser walks the line once with a cursor that hands out significant
+ * bytes (upper-cased; bytes <= ' ', '/' and comments skipped) and reads each
+ * number digit by digit into a 32-bit mantissa and a decimal count: no float,
+ * no strtod, no 64-bit arithmetic.
  *
- * The interpreter follows RS274/NGC's order of execution for the subset
- * plotkin implements and works in int64 micrometres before range-checking
- * against the machine travel, so no intermediate can overflow: every word is
- * below 10^15 (1e-6 units), times 254 (inch conversion) is below 2^58.
+ * The interpreter follows Grbl 1.1h's gc_execute_line step by step, so that
+ * a block with several faults fails with the error Grbl reports first; the
+ * numbered comments ([2. Set feed rate mode], ...) are Grbl's. All lengths
+ * are converted once to int32 µm (mm values: 32-bit; inch values: one 64-bit
+ * product), checked against ±PK_UM_MAX before anything is committed.
  */
 #include "pk_gcode.h"
+#include "pk_rom.h"
 
+#include <stddef.h>
 #include <string.h>
 
-/* Cursor results besides a byte value. */
 #define CUR_END (-1)
-#define CUR_GARBAGE (-2)
+
+static const uint32_t pow10_tab[10] PK_ROM = { 1u, 10u, 100u, 1000u, 10000u, 100000u, 1000000u,
+                                        10000000u, 100000000u, 1000000000u };
+/* 0x7fffffff / 10^k: the overflow bound of a * 10^k without a division (a
+ * 32-bit divide is ~600 cycles on an AVR) */
+static const uint32_t pow10_lim[10] PK_ROM = { 2147483647u, 214748364u, 21474836u, 2147483u,
+                                        214748u, 21474u, 2147u, 214u, 21u, 2u };
 
 struct pk_gc_cursor {
     const uint8_t *s;
@@ -32,35 +38,21 @@ static int cur_peek(struct pk_gc_cursor *c)
 {
     while (c->i < c->n) {
         uint8_t b = c->s[c->i];
-        if (b == ' ' || b == '\t') {
+        if (b <= ' ' || b == '/') { /* whitespace, control bytes, block delete */
             c->i++;
             continue;
         }
-        if (b == '(') {
-            /* Comment: to ')' or, as Grbl accepts, to the end of the line.
-             * Text inside may be any printable ASCII or UTF-8; control bytes
-             * are still garbage. */
+        if (b == '(') { /* to ')' or, as Grbl, to the end of the line */
             size_t j = c->i + 1;
-            while (j < c->n && c->s[j] != ')') {
-                uint8_t d = c->s[j];
-                if ((d < 0x20 && d != '\t') || d == 0x7f)
-                    return CUR_GARBAGE;
+            while (j < c->n && c->s[j] != ')')
                 j++;
-            }
             c->i = j < c->n ? j + 1 : j;
             continue;
         }
         if (b == ';') {
-            for (size_t j = c->i + 1; j < c->n; j++) {
-                uint8_t d = c->s[j];
-                if ((d < 0x20 && d != '\t') || d == 0x7f)
-                    return CUR_GARBAGE;
-            }
             c->i = c->n;
             return CUR_END;
         }
-        if (b < 0x20 || b >= 0x7f)
-            return CUR_GARBAGE;
         if (b >= 'a' && b <= 'z')
             b = (uint8_t)(b - 'a' + 'A');
         return b;
@@ -71,80 +63,97 @@ static int cur_peek(struct pk_gc_cursor *c)
 static int is_digit(int ch) { return ch >= '0' && ch <= '9'; }
 
 /*
- * Read a number: [+-] digits [. digits] | [+-] . digits.
- * Returns PK_GC_OK or an error; *out in 1e-6 units.
+ * Read a number: [+-] digits [. digits] | [+-] . digits. At most 9 integer
+ * digits; fraction digits are kept while the mantissa has fewer than 9
+ * digits and the decimals are fewer than 9, later ones dropped.
  */
-static int read_number(struct pk_gc_cursor *c, pk_gc_u6_t *out)
+static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
 {
     int ch = cur_peek(c);
     int neg = 0;
-    if (ch == CUR_GARBAGE)
-        return PK_GC_E_EXPECTED_LETTER;
     if (ch == '+' || ch == '-') {
         neg = ch == '-';
         c->i++;
         ch = cur_peek(c);
-        if (ch == CUR_GARBAGE)
-            return PK_GC_E_EXPECTED_LETTER;
     }
-    int64_t ip = 0;      /* integer part */
-    int64_t fp = 0;      /* fraction, 6 digits */
-    unsigned idig = 0;   /* significant integer digits */
-    unsigned fdig = 0;   /* fraction digits seen */
-    unsigned ndig = 0;   /* all digits seen */
-    int dot = 0, round_up = 0;
+    uint32_t m = 0;
+    uint8_t dec = 0;
+    unsigned ndig = 0;
+    int dot = 0;
     for (;;) {
         if (is_digit(ch)) {
-            int d = ch - '0';
+            uint32_t d = (uint32_t)(ch - '0');
             ndig++;
             if (!dot) {
-                if (ip != 0 || d != 0)
-                    idig++;
-                if (idig > 9)
-                    return PK_GC_E_BAD_NUMBER;
-                ip = ip * 10 + d;
-            } else {
-                fdig++;
-                if (fdig <= 6)
-                    fp = fp * 10 + d;
-                else if (fdig == 7)
-                    round_up = d >= 5;
+                if (m > 99999999u)
+                    return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
+                m = m * 10u + d;
+            } else if (dec < 9u && m <= 99999999u) {
+                m = m * 10u + d;
+                dec++;
             }
-        } else if (ch == '.') {
-            if (dot)
-                return PK_GC_E_BAD_NUMBER;
+        } else if (ch == '.' && !dot) {
             dot = 1;
         } else {
             break;
         }
         c->i++;
-        ch = cur_peek(c);
+        /* fast path: the next byte is a digit (the engine hands over lines
+         * without blanks or comments); otherwise the full peek */
+        if (c->i < c->n && (uint8_t)(c->s[c->i] - '0') <= 9u)
+            ch = c->s[c->i];
+        else
+            ch = cur_peek(c);
     }
-    if (ch == CUR_GARBAGE)
-        return PK_GC_E_EXPECTED_LETTER;
     if (ndig == 0)
         return PK_GC_E_BAD_NUMBER;
-    /* A sign right after a number ("X1-2") is a malformed number too. */
-    if (ch == '+' || ch == '-')
-        return PK_GC_E_BAD_NUMBER;
-    while (fdig < 6) {
-        fp *= 10;
-        fdig++;
-    }
-    int64_t v = ip * PK_GC_U6_ONE + fp + round_up;
-    if (v > PK_GC_U6_MAX)
-        return PK_GC_E_BAD_NUMBER; /* 999999999.9999995 rounds up past 9 digits */
-    *out = neg ? -v : v;
+    *m_out = neg ? -(int32_t)m : (int32_t)m;
+    *dec_out = dec;
     return PK_GC_OK;
 }
 
-int pk_gcode_parse_number(const uint8_t *s, size_t len, pk_gc_u6_t *out)
+int pk_gcode_parse_number(const uint8_t *s, size_t len, int32_t *m, uint8_t *dec)
 {
     struct pk_gc_cursor c = { s, len, 0 };
-    int rc = read_number(&c, out);
+    int rc = read_number(&c, m, dec);
     if (rc != PK_GC_OK)
         return rc;
     return cur_peek(&c) == CUR_END ? PK_GC_OK : PK_GC_E_EXPECTED_LETTER;
+}
+
+int pk_gcode_scaled(int32_t m, uint8_t md, uint8_t dec, int32_t *out)
+{
+    uint32_t a = m < 0 ? (uint32_t)0 - (uint32_t)m : (uint32_t)m;
+    uint32_t r;
+    if (dec == md) {
+        r = a; /* the common case: as many decimals as wanted */
+    } else if (dec > md) {
+        unsigned k = (unsigned)(dec - md);
+        if (k > 9u || a > pk_rom_u32(&pow10_lim[k]))
+            return PK_GC_E_BAD_NUMBER;
+        r = a * pk_rom_u32(&pow10_tab[k]);
+    } else {
+        uint32_t p = pk_rom_u32(&pow10_tab[md - dec]);
+        r = a / p;
+        if ((a % p) * 2u >= p) /* half away from zero */
+            r++;
+    }
+    *out = m < 0 ? -(int32_t)r : (int32_t)r;
+    return PK_GC_OK;
+}
+
+int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
+{
+    if (units != PK_GC_INCH)
+        return pk_gcode_scaled(m, dec, 3, out);
+    /* 1 inch = 25400 µm: m * 25400 / 10^dec (|m| < 2^30: below 2^45) */
+    int64_t v = (int64_t)m * 25400;
+    int64_t p = pk_rom_u32(&pow10_tab[dec]);
+    int64_t q = v >= 0 ? (v + p / 2) / p : -((-v + p / 2) / p);
+    if (q > 0x7fffffffLL || q < -0x7fffffffLL)
+        return PK_GC_E_BAD_NUMBER;
+    *out = (int32_t)q;
+    return PK_GC_OK;
 }
 
 static int word_index(int letter)
@@ -154,6 +163,7 @@ static int word_index(int letter)
     case 'I': return PK_GC_W_I;
     case 'J': return PK_GC_W_J;
     case 'K': return PK_GC_W_K;
+    case 'L': return PK_GC_W_L;
     case 'N': return PK_GC_W_N;
     case 'P': return PK_GC_W_P;
     case 'Q': return PK_GC_W_Q;
@@ -162,12 +172,38 @@ static int word_index(int letter)
     case 'T': return PK_GC_W_T;
     case 'X': return PK_GC_W_X;
     case 'Y': return PK_GC_W_Y;
+#if PK_GC_AXES >= 3
     case 'Z': return PK_GC_W_Z;
+#endif
     default: return -1;
     }
 }
 
-/* Record that group g is commanded; two in one block is error 21. */
+/* Grbl's int_value (trunc) and mantissa (round(100 * fraction)) of a G/M
+ * value; -1 for a negative or too large one (unsupported). */
+static int code_parts(int32_t m, uint8_t dec, uint32_t *whole, uint32_t *mant)
+{
+    if (m < 0)
+        return -1;
+    if (dec == 0) { /* G1, M3: no division */
+        *whole = (uint32_t)m;
+        *mant = 0;
+        return *whole > 255u ? -1 : 0;
+    }
+    uint32_t p = pk_rom_u32(&pow10_tab[dec]);
+    *whole = (uint32_t)m / p;
+    uint32_t frac = (uint32_t)m % p;
+    /* round(frac * 100 / p): frac < p <= 10^9, so frac * 100 fits in 64 bits
+     * only; split to stay in 32: (frac / (p/100)) for p >= 100 */
+    if (p >= 100u) {
+        uint32_t q = p / 100u;
+        *mant = frac / q + ((frac % q) * 2u >= q ? 1u : 0u);
+    } else {
+        *mant = frac * (100u / p);
+    }
+    return *whole > 255u ? -1 : 0;
+}
+
 static int set_group(struct pk_gc_block *b, unsigned g)
 {
     if (b->groups & PK_GC_GBIT(g))
@@ -176,377 +212,888 @@ static int set_group(struct pk_gc_block *b, unsigned g)
     return PK_GC_OK;
 }
 
-/* A G word. v is the value in 1e-6 units. */
-static int g_word(struct pk_gc_block *b, pk_gc_u6_t v)
+static int axis_command(struct pk_gc_block *b, uint8_t kind)
 {
-    if (v < 0)
-        return PK_GC_E_UNSUPPORTED;
-    int64_t whole = v / PK_GC_U6_ONE;
-    int64_t frac = v % PK_GC_U6_ONE;     /* 0..999999 */
-    if (whole > 99)
-        return PK_GC_E_UNSUPPORTED;
-    if (frac != 0) {
-        if (whole == 5 && frac == 100000) { /* G5.1 */
-            if (set_group(b, PK_GC_G_MOTION) != PK_GC_OK)
-                return PK_GC_E_MODAL_GROUP;
-            b->motion = PK_GC_MOT_QUAD;
-            return PK_GC_OK;
-        }
-        /* G5.2 (NURBS), G92.1, G61.1, G64.5 ...: a known number with a
-         * fraction it does not have is "not an integer"; G5.x is a family
-         * LinuxCNC defines, so an unknown member is unsupported. */
-        switch (whole) {
-        case 0: case 1: case 2: case 3: case 4: case 17: case 20: case 21:
-        case 40: case 49: case 54: case 61: case 64: case 80: case 90:
-        case 91: case 92: case 94:
-            return PK_GC_E_NOT_INTEGER;
-        default:
-            return PK_GC_E_UNSUPPORTED;
-        }
-    }
-    unsigned g;
-    uint8_t val = 0;
-    uint8_t *field = NULL;
-    switch (whole) {
-    case 0: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_RAPID; break;
-    case 1: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_LINEAR; break;
-    case 2: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_CW_ARC; break;
-    case 3: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_CCW_ARC; break;
-    case 5: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_CUBIC; break;
-    case 80: g = PK_GC_G_MOTION; field = &b->motion; val = PK_GC_MOT_NONE; break;
-    case 4: g = PK_GC_G_NONMODAL; field = &b->nonmodal; val = PK_GC_NM_DWELL; break;
-    case 92: g = PK_GC_G_NONMODAL; field = &b->nonmodal; val = PK_GC_NM_SET_OFFSET; break;
-    case 17: g = PK_GC_G_PLANE; break;
-    case 90: g = PK_GC_G_DISTANCE; field = &b->distance; val = PK_GC_ABSOLUTE; break;
-    case 91: g = PK_GC_G_DISTANCE; field = &b->distance; val = PK_GC_INCREMENTAL; break;
-    case 94: g = PK_GC_G_FEEDMODE; break;
-    case 20: g = PK_GC_G_UNITS; field = &b->units; val = PK_GC_INCH; break;
-    case 21: g = PK_GC_G_UNITS; field = &b->units; val = PK_GC_MM; break;
-    case 40: g = PK_GC_G_CUTTER; break;
-    case 49: g = PK_GC_G_TLO; break;
-    case 54: g = PK_GC_G_WCS; break;
-    case 61: g = PK_GC_G_PATH; field = &b->path; val = PK_GC_PATH_EXACT; break;
-    case 64: g = PK_GC_G_PATH; field = &b->path; val = PK_GC_PATH_BLEND; break;
-    default: return PK_GC_E_UNSUPPORTED;
-    }
-    if (set_group(b, g) != PK_GC_OK)
-        return PK_GC_E_MODAL_GROUP;
-    if (field != NULL)
-        *field = val;
+    if (b->axis_cmd != PK_GC_AXCMD_NONE)
+        return PK_GC_E_AXIS_CONFLICT;
+    b->axis_cmd = kind;
     return PK_GC_OK;
 }
 
-static int m_word(struct pk_gc_block *b, pk_gc_u6_t v)
+/* Grbl keeps a G/M number in a uint8 (trunc) and the fraction times 100 in
+ * a uint16: a negative or > 255 value wraps to another code with a non-zero
+ * "mantissa". Its answer: error 23 where the wrapped code exists, else 20. */
+static int code_wrapped(int32_t m, uint8_t dec, int is_g)
 {
-    if (v < 0)
-        return PK_GC_E_UNSUPPORTED;
-    if (v % PK_GC_U6_ONE != 0)
+    int32_t t = m / (int32_t)pk_rom_u32(&pow10_tab[dec]); /* trunc */
+    uint32_t w = (uint32_t)t & 0xffu;
+    if (!is_g)
         return PK_GC_E_NOT_INTEGER;
-    int64_t m = v / PK_GC_U6_ONE;
-    unsigned g;
-    uint8_t *field;
-    uint8_t val;
-    switch (m) {
-    case 2: g = PK_GC_G_STOP; field = &b->stop; val = PK_GC_STOP_END; break;
-    case 30: g = PK_GC_G_STOP; field = &b->stop; val = PK_GC_STOP_END_RESET; break;
-    case 3: g = PK_GC_G_SPINDLE; field = &b->spindle; val = PK_GC_PEN_DOWN; break;
-    case 5: g = PK_GC_G_SPINDLE; field = &b->spindle; val = PK_GC_PEN_UP; break;
-    default: return PK_GC_E_UNSUPPORTED;
+    switch (w) {
+    case 0: case 1: case 2: case 3: case 4: case 5: case 10: case 17: case 18: case 19: case 20:
+    case 21: case 28: case 30: case 38: case 40: case 43: case 49: case 53: case 54: case 55:
+    case 56: case 57: case 58: case 59: case 61: case 64: case 80: case 90: case 91: case 92:
+    case 93: case 94:
+        return PK_GC_E_NOT_INTEGER;
+    default:
+        return PK_GC_E_UNSUPPORTED;
     }
-    if (set_group(b, g) != PK_GC_OK)
-        return PK_GC_E_MODAL_GROUP;
-    *field = val;
-    return PK_GC_OK;
+}
+
+/* A G word (Grbl's switch, plus G5/G5.1 and G64). */
+static int g_word(struct pk_gc_block *b, int32_t m, uint8_t dec)
+{
+    uint32_t v, mant;
+    if (code_parts(m, dec, &v, &mant) != 0)
+        return code_wrapped(m, dec, 1);
+    unsigned g;
+    int rc;
+    switch (v) {
+    case 10: case 28: case 30: case 92:
+        if (mant == 0 && (rc = axis_command(b, PK_GC_AXCMD_NONMODAL)) != PK_GC_OK)
+            return rc;
+        /* fall through */
+    case 4: case 53:
+        g = PK_GC_G_NONMODAL;
+        b->nonmodal = (uint8_t)v;
+        if (v == 28 || v == 30 || v == 92) {
+            if (mant != 0 && mant != 10)
+                return PK_GC_E_UNSUPPORTED;
+            b->nonmodal = (uint8_t)(v + mant);
+            mant = 0;
+        }
+        break;
+    case 0: case 1: case 2: case 3: case 38: case 5:
+        if ((rc = axis_command(b, PK_GC_AXCMD_MOTION)) != PK_GC_OK)
+            return rc;
+        /* fall through */
+    case 80:
+        g = PK_GC_G_MOTION;
+        switch (v) {
+        case 0: b->motion = PK_GC_MOT_RAPID; break;
+        case 1: b->motion = PK_GC_MOT_LINEAR; break;
+        case 2: b->motion = PK_GC_MOT_CW_ARC; break;
+        case 3: b->motion = PK_GC_MOT_CCW_ARC; break;
+        case 80: b->motion = PK_GC_MOT_NONE; break;
+        case 5:
+            if (mant != 0 && mant != 10)
+                return PK_GC_E_UNSUPPORTED; /* G5.2 NURBS and the rest of LinuxCNC's G5.x */
+            b->motion = mant ? PK_GC_MOT_QUAD : PK_GC_MOT_CUBIC;
+            mant = 0;
+            break;
+        default: /* 38 */
+            if (mant != 20 && mant != 30 && mant != 40 && mant != 50)
+                return PK_GC_E_UNSUPPORTED;
+            b->motion = (uint8_t)(PK_GC_MOT_PROBE_TOWARD + (mant - 20u) / 10u);
+            mant = 0;
+            break;
+        }
+        break;
+    case 17: case 18: case 19:
+#if PK_GC_AXES < 3
+        if (v != 17)
+            return PK_GC_E_UNSUPPORTED;
+#endif
+        g = PK_GC_G_PLANE;
+        b->plane = (uint8_t)(v - 17);
+        break;
+    case 90: case 91:
+        if (mant == 0) {
+            g = PK_GC_G_DISTANCE;
+            b->distance = (uint8_t)(v - 90);
+        } else {
+            g = PK_GC_G_ARC_DISTANCE;
+            if (mant != 10 || v == 90)
+                return PK_GC_E_UNSUPPORTED; /* G90.1 */
+            mant = 0;
+        }
+        break;
+    case 93: case 94:
+        g = PK_GC_G_FEEDMODE;
+        b->feedmode = (uint8_t)(94 - v);
+        break;
+    case 20: case 21:
+        g = PK_GC_G_UNITS;
+        b->units = (uint8_t)(21 - v);
+        break;
+    case 40:
+        g = PK_GC_G_CUTTER;
+        break;
+    case 43: case 49:
+        g = PK_GC_G_TLO;
+        if ((rc = axis_command(b, PK_GC_AXCMD_TLO)) != PK_GC_OK)
+            return rc;
+        if (v == 49) {
+            b->tlo = PK_GC_TLO_CANCEL;
+            mant = 0; /* Grbl: G49.x is G49 */
+        } else if (mant == 10) {
+#if PK_GC_AXES < 3
+            return PK_GC_E_UNSUPPORTED; /* no Z axis to offset */
+#endif
+            b->tlo = PK_GC_TLO_DYNAMIC;
+            mant = 0;
+        } else {
+            return PK_GC_E_UNSUPPORTED; /* G43 (tool table), G43.2 */
+        }
+        break;
+    case 54: case 55: case 56: case 57: case 58: case 59:
+        g = PK_GC_G_WCS;
+        b->wcs = (uint8_t)(v - 54);
+        break;
+    case 61: case 64:
+        g = PK_GC_G_PATH;
+        if (mant != 0)
+            return PK_GC_E_UNSUPPORTED; /* G61.1, G64.x */
+        b->path = v == 61 ? PK_GC_PATH_EXACT : PK_GC_PATH_BLEND;
+        break;
+    default:
+        return PK_GC_E_UNSUPPORTED;
+    }
+    if (mant > 0)
+        return PK_GC_E_NOT_INTEGER;
+    return set_group(b, g);
+}
+
+static int m_word(struct pk_gc_block *b, int32_t m, uint8_t dec)
+{
+    uint32_t v, mant;
+    if (code_parts(m, dec, &v, &mant) != 0)
+        return code_wrapped(m, dec, 0);
+    if (mant > 0)
+        return PK_GC_E_NOT_INTEGER;
+    unsigned g;
+    switch (v) {
+    case 0: case 1: case 2: case 30:
+        g = PK_GC_G_STOP;
+        b->stop = v == 0 ? PK_GC_STOP_PAUSE : (uint8_t)v;
+        break;
+    case 3: case 4: case 5:
+        g = PK_GC_G_SPINDLE;
+        b->spindle = v == 5 ? PK_GC_SPINDLE_OFF : (uint8_t)v;
+        break;
+    case 7: case 8: case 9:
+        g = PK_GC_G_COOLANT;
+        b->coolant = (uint8_t)v;
+        break;
+    case 56:
+        g = PK_GC_G_OVERRIDE;
+        break;
+    default:
+        return PK_GC_E_UNSUPPORTED;
+    }
+    return set_group(b, g);
 }
 
 static int has(const struct pk_gc_block *b, int w) { return (b->words & PK_GC_WBIT(w)) != 0; }
 
-int pk_gcode_parse(const uint8_t *line, size_t len, struct pk_gc_block *out)
+/* The words of a line. A negative P is error 4 where Grbl reads it, unless
+ * the block is a G5 (plotkin: P, Q are the offset of its second control
+ * point): *neg_p marks one read before any G5, and any error after it
+ * becomes error 4, as Grbl would have stopped there. */
+static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg_p)
 {
-    memset(out, 0, sizeof *out);
-    if (len > PK_GC_LINE_MAX)
-        return PK_GC_E_LINE_OVERFLOW;
-    struct pk_gc_cursor c = { line, len, 0 };
-    int ch = cur_peek(&c);
-    if (ch == '/') {            /* block delete: ignored, as Grbl does */
-        c.i++;
-        ch = cur_peek(&c);
-    } else if (ch == '%') {     /* program delimiter: the line must hold nothing else */
-        c.i++;
-        ch = cur_peek(&c);
-        if (ch == CUR_END)
-            return PK_GC_OK;
-        return ch == CUR_GARBAGE || ch < 'A' || ch > 'Z' ? PK_GC_E_EXPECTED_LETTER
-                                                         : PK_GC_E_UNSUPPORTED;
-    }
-    for (;;) {
-        if (ch == CUR_END)
-            break;
-        if (ch == CUR_GARBAGE || ch < 'A' || ch > 'Z')
+    int ch = cur_peek(c);
+    while (ch != CUR_END) {
+        if (ch < 'A' || ch > 'Z')
             return PK_GC_E_EXPECTED_LETTER;
         int letter = ch;
-        c.i++;
-        pk_gc_u6_t v;
-        int rc = read_number(&c, &v);
+        c->i++;
+        int32_t m;
+        uint8_t dec;
+        int rc = read_number(c, &m, &dec);
         if (rc != PK_GC_OK)
             return rc;
         if (letter == 'G') {
-            rc = g_word(out, v);
+            rc = g_word(out, m, dec);
+            if (rc == PK_GC_OK && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
+                out->motion == PK_GC_MOT_CUBIC)
+                *neg_p = 0;
         } else if (letter == 'M') {
-            rc = m_word(out, v);
+            rc = m_word(out, m, dec);
         } else {
             int w = word_index(letter);
             if (w < 0)
                 return PK_GC_E_UNSUPPORTED;
+            /* Grbl: T above 255 first, then repeats, then negatives */
+            if (w == PK_GC_W_T && m > 0 && ((uint32_t)m / pk_rom_u32(&pow10_tab[dec]) > 255u))
+                return PK_GC_E_TOOL_NUMBER;
             if (has(out, w))
                 return PK_GC_E_REPEATED_WORD;
+            int cubic = (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion == PK_GC_MOT_CUBIC;
+            if (m < 0 && w == PK_GC_W_P && !cubic)
+                *neg_p = 1;
+            else if (m < 0 && (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S))
+                return PK_GC_E_NEGATIVE;
             out->words |= PK_GC_WBIT(w);
-            out->v[w] = v;
+            out->m[w] = m;
+            out->dec[w] = dec;
         }
         if (rc != PK_GC_OK)
             return rc;
-        ch = cur_peek(&c);
-    }
-
-    /* Rules that depend on this line alone. */
-    if (has(out, PK_GC_W_N)) {
-        pk_gc_u6_t n = out->v[PK_GC_W_N];
-        if (n < 0 || n % PK_GC_U6_ONE != 0 || n / PK_GC_U6_ONE > PK_GC_N_MAX)
-            return PK_GC_E_LINE_NUMBER;
-    }
-    if (has(out, PK_GC_W_F) && out->v[PK_GC_W_F] < 0)
-        return PK_GC_E_NEGATIVE;
-    if (has(out, PK_GC_W_S) && out->v[PK_GC_W_S] < 0)
-        return PK_GC_E_NEGATIVE;
-    if (has(out, PK_GC_W_T)) {
-        pk_gc_u6_t t = out->v[PK_GC_W_T];
-        if (t < 0)
-            return PK_GC_E_NEGATIVE;
-        if (t % PK_GC_U6_ONE != 0)
-            return PK_GC_E_NOT_INTEGER;
-        if (t / PK_GC_U6_ONE > 255)
-            return PK_GC_E_TOOL_NUMBER;
-    }
-    if (out->groups & PK_GC_GBIT(PK_GC_G_NONMODAL)) {
-        if (out->nonmodal == PK_GC_NM_DWELL) {
-            if (!has(out, PK_GC_W_P))
-                return PK_GC_E_VALUE_MISSING;
-            if (out->v[PK_GC_W_P] < 0)
-                return PK_GC_E_NEGATIVE;
-        } else { /* G92 */
-            if ((out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion != PK_GC_MOT_NONE)
-                return PK_GC_E_AXIS_CONFLICT;
-            if (!(out->words & PK_GC_AXIS_WORDS))
-                return PK_GC_E_NO_AXIS_WORDS;
-        }
+        ch = cur_peek(c);
     }
     return PK_GC_OK;
+}
+
+int pk_gcode_parse(const uint8_t *line, size_t len, struct pk_gc_block *out)
+{
+    /* only the presence masks: every other field is read only under its
+     * words/groups bit (clearing all 76 bytes costs ~300 cycles on an AVR) */
+    out->words = 0;
+    out->groups = 0;
+    out->axis_cmd = PK_GC_AXCMD_NONE;
+    if (len > PK_GC_LINE_MAX)
+        return PK_GC_E_LINE_OVERFLOW;
+    struct pk_gc_cursor c = { line, len, 0 };
+    int ch = cur_peek(&c);
+    if (ch == '%') { /* program delimiter: the line must hold nothing else */
+        c.i++;
+        ch = cur_peek(&c);
+        return ch == CUR_END ? PK_GC_OK : PK_GC_E_EXPECTED_LETTER;
+    }
+    int neg_p = 0;
+    int rc = parse_words(&c, out, &neg_p);
+    if (neg_p)
+        return PK_GC_E_NEGATIVE;
+    return rc;
 }
 
 /* ------------------------------------------------------------------------- */
 /* Interpreter                                                                */
 /* ------------------------------------------------------------------------- */
 
-int64_t pk_gcode_len_um(pk_gc_u6_t v, uint8_t units)
-{
-    if (units == PK_GC_INCH)   /* 1 inch = 25400 µm: v * 25400 / 10^6 */
-        return pk_div_round64(v * 254, 10000);
-    return pk_div_round64(v, 1000);
-}
-
-void pk_gcode_state_init(struct pk_gc_state *st, const struct pk_gc_limits *lim,
-                         const pk_um_t pos_um[PK_GC_AXES])
+void pk_gcode_state_init(struct pk_gc_state *st, const pk_um_t pos_um[PK_GC_AXES],
+                         const pk_um_t g54_um[PK_GC_AXES])
 {
     memset(st, 0, sizeof *st);
-    st->lim = *lim;
-    for (int a = 0; a < PK_GC_AXES; a++)
+    for (int a = 0; a < PK_GC_AXES; a++) {
         st->pos_um[a] = pos_um[a];
+        st->wcs_um[a] = g54_um ? g54_um[a] : 0;
+    }
     st->motion = PK_GC_MOT_RAPID;
-    st->distance = PK_GC_ABSOLUTE;
-    st->units = PK_GC_MM;
     st->path = PK_GC_PATH_BLEND;
-    st->pen = PK_GC_PEN_UP;
+    st->parking_ovr = 1;
 }
 
-static int in_travel(const struct pk_gc_limits *lim, int a, int64_t v)
+pk_um_t pk_gcode_wco(const struct pk_gc_state *st, unsigned a)
 {
-    return v >= lim->min_um[a] && v <= lim->max_um[a];
+    pk_um_t v = st->wcs_um[a] + st->g92_um[a];
+#if PK_GC_AXES >= 3
+    if (a == 2)
+        v += st->tlo_um;
+#endif
+    return v;
 }
 
-#define VALUE_WORDS (PK_GC_WBIT(PK_GC_W_I) | PK_GC_WBIT(PK_GC_W_J) | PK_GC_WBIT(PK_GC_W_K) | \
-                     PK_GC_WBIT(PK_GC_W_P) | PK_GC_WBIT(PK_GC_W_Q) | PK_GC_WBIT(PK_GC_W_R))
+static int in_range(int64_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
+static int in_range32(int32_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 
-/* G5 / G5.1 control points; start/target are XY machine µm. */
-static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b, uint8_t units,
-                       const int64_t start[2], const int64_t target[2], struct pk_gc_cmd *cmd,
-                       uint16_t *used, int64_t pq_out[2])
+/* Targets and offsets in 32 bits: every term added to an axis word is a
+ * position or offset within +-PK_UM_MAX (< 2^21), so once the word itself is
+ * within +-2^30 (beyond that it is out of travel anyway) no sum of up to
+ * four terms leaves int32. */
+#define WORD_LIM (INT32_C(1) << 30)
+static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
+
+#define TLO_AXIS 2
+
+/* Truncated integer value of a word (Grbl's int_value). */
+static uint32_t word_uint(const struct pk_gc_block *b, int w)
+{
+    return b->m[w] < 0 ? 0u : (uint32_t)b->m[w] / pk_rom_u32(&pow10_tab[b->dec[w]]);
+}
+
+/* G5 / G5.1 control points (plotkin; LinuxCNC's rules). */
+static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b, uint8_t motion,
+                       uint8_t units, uint8_t plane, const int32_t start[2],
+                       const int32_t target[2], pk_um_t ctrl[4][2], uint16_t *used,
+                       int32_t pq_out[2])
 {
     int hi = has(b, PK_GC_W_I), hj = has(b, PK_GC_W_J);
-    int64_t ij[2] = { 0, 0 };
-    if (b->words & PK_GC_WBIT(PK_GC_W_Z))
-        return PK_GC_E_BAD_TARGET;  /* LinuxCNC: X and Y only */
-    if (hi)
-        ij[0] = pk_gcode_len_um(b->v[PK_GC_W_I], units);
-    if (hj)
-        ij[1] = pk_gcode_len_um(b->v[PK_GC_W_J], units);
+    int32_t ij[2] = { 0, 0 };
+    if (plane != PK_GC_PLANE_XY || has(b, PK_GC_W_Z))
+        return PK_GC_E_BAD_TARGET; /* LinuxCNC: X and Y only, in G17 */
+    if (hi && pk_gcode_len_um(b->m[PK_GC_W_I], b->dec[PK_GC_W_I], units, &ij[0]) != PK_GC_OK)
+        return PK_GC_E_BAD_NUMBER;
+    if (hj && pk_gcode_len_um(b->m[PK_GC_W_J], b->dec[PK_GC_W_J], units, &ij[1]) != PK_GC_OK)
+        return PK_GC_E_BAD_NUMBER;
     *used |= PK_GC_WBIT(PK_GC_W_I) | PK_GC_WBIT(PK_GC_W_J);
     int64_t c[2][2];
-    if (st->motion == PK_GC_MOT_QUAD) {
+    if (motion == PK_GC_MOT_QUAD) {
         if (!hi && !hj)
             return PK_GC_E_VALUE_MISSING;
-        c[0][0] = start[0] + ij[0];
-        c[0][1] = start[1] + ij[1];
-        c[1][0] = c[0][0];
-        c[1][1] = c[0][1];
+        for (int a = 0; a < 2; a++)
+            c[0][a] = c[1][a] = (int64_t)start[a] + ij[a];
     } else {
-        if (!has(b, PK_GC_W_P) || !has(b, PK_GC_W_Q))
+        if (!has(b, PK_GC_W_P) || !has(b, PK_GC_W_Q) || hi != hj)
             return PK_GC_E_VALUE_MISSING;
-        if (hi != hj)
-            return PK_GC_E_VALUE_MISSING;
-        if (!hi) {
-            /* I,J omitted: continue the previous cubic's end tangent. */
+        if (!hi) { /* I, J omitted: continue the previous cubic's end tangent */
             if (!st->cubic_prev)
                 return PK_GC_E_VALUE_MISSING;
-            ij[0] = -(int64_t)st->prev_pq_um[0];
-            ij[1] = -(int64_t)st->prev_pq_um[1];
+            ij[0] = -st->prev_pq_um[0];
+            ij[1] = -st->prev_pq_um[1];
         }
-        pq_out[0] = pk_gcode_len_um(b->v[PK_GC_W_P], units);
-        pq_out[1] = pk_gcode_len_um(b->v[PK_GC_W_Q], units);
+        if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &pq_out[0]) != PK_GC_OK ||
+            pk_gcode_len_um(b->m[PK_GC_W_Q], b->dec[PK_GC_W_Q], units, &pq_out[1]) != PK_GC_OK)
+            return PK_GC_E_BAD_NUMBER;
         *used |= PK_GC_WBIT(PK_GC_W_P) | PK_GC_WBIT(PK_GC_W_Q);
-        c[0][0] = start[0] + ij[0];
-        c[0][1] = start[1] + ij[1];
-        c[1][0] = target[0] + pq_out[0];
-        c[1][1] = target[1] + pq_out[1];
-    }
-    /* Conservative travel check: the curve lies in the hull of its control
-     * points, so checking them guarantees every refined point is inside. */
-    for (int k = 0; k < 2; k++)
         for (int a = 0; a < 2; a++) {
-            if (!in_travel(&st->lim, a, c[k][a]))
-                return PK_GC_E_TRAVEL;
-            cmd->ctrl_um[k][a] = (pk_um_t)c[k][a];
+            c[0][a] = (int64_t)start[a] + ij[a];
+            c[1][a] = (int64_t)target[a] + pq_out[a];
         }
+    }
+    /* The curve lies in the hull of its control points. */
+    for (int a = 0; a < 2; a++) {
+        ctrl[0][a] = start[a];
+        for (int k = 0; k < 2; k++) {
+            if (!in_range(c[k][a]))
+                return PK_GC_E_TRAVEL;
+            ctrl[1 + k][a] = (pk_um_t)c[k][a];
+        }
+        ctrl[3][a] = target[a];
+        if (motion == PK_GC_MOT_QUAD)
+            ctrl[2][a] = target[a];
+    }
     return PK_GC_OK;
 }
 
-int pk_gcode_interp(struct pk_gc_state *st, const struct pk_gc_block *b, struct pk_gc_cmd *cmd)
+/* Length of a straight move, µm (rounded up), for G93. */
+static uint32_t move_len(const int32_t a[PK_GC_AXES], const int32_t b[PK_GC_AXES])
 {
-    struct pk_gc_state n = *st;  /* committed only on success */
-    uint16_t used = PK_GC_WBIT(PK_GC_W_N) | PK_GC_WBIT(PK_GC_W_F) | PK_GC_WBIT(PK_GC_W_S) |
-                    PK_GC_WBIT(PK_GC_W_T);
-    memset(cmd, 0, sizeof *cmd);
-    cmd->line_number = has(b, PK_GC_W_N) ? (int32_t)(b->v[PK_GC_W_N] / PK_GC_U6_ONE) : -1;
+    uint64_t s = 0;
+    for (int i = 0; i < PK_GC_AXES; i++) {
+        int64_t d = (int64_t)b[i] - a[i];
+        s += (uint64_t)(d * d);
+    }
+    uint64_t r = pk_isqrt64(s);
+    return (uint32_t)(r * r < s ? r + 1u : r);
+}
 
-    /* Units and distance mode of this block apply to all its words (Grbl). */
-    if (b->groups & PK_GC_GBIT(PK_GC_G_UNITS))
-        n.units = b->units;
-    if (b->groups & PK_GC_GBIT(PK_GC_G_DISTANCE))
-        n.distance = b->distance;
-    if (has(b, PK_GC_W_F)) {
-        int64_t f = pk_gcode_len_um(b->v[PK_GC_W_F], n.units);
-        if (f > PK_GC_FEED_MAX)
-            return PK_GC_E_BAD_NUMBER;
-        n.feed_umpm = (pk_gc_umpm_t)f;
-    }
-    if (b->groups & PK_GC_GBIT(PK_GC_G_SPINDLE)) {
-        cmd->what |= PK_GC_DO_PEN;
-        cmd->pen = b->spindle;
-        n.pen = b->spindle;
-    }
-    if ((b->groups & PK_GC_GBIT(PK_GC_G_NONMODAL)) && b->nonmodal == PK_GC_NM_DWELL) {
-        int64_t ms = pk_div_round64(b->v[PK_GC_W_P], 1000);  /* P in seconds */
-        if (ms > 0x7fffffffLL)
-            return PK_GC_E_BAD_NUMBER;
-        cmd->what |= PK_GC_DO_DWELL;
-        cmd->dwell_ms = (uint32_t)ms;
-        used |= PK_GC_WBIT(PK_GC_W_P);
-    }
+/* The chord tolerance of arcs and G5 (lead's rule): a quarter of the path
+ * tolerance in G64, min($12, 2 µm) in G61. */
+static pk_um_t chord_tol(uint8_t path, pk_um_t tol_um, pk_um_t dflt)
+{
+    if (path == PK_GC_PATH_EXACT)
+        return dflt < 2 ? (dflt < 1 ? 1 : dflt) : 2;
+    pk_um_t p = tol_um > 0 ? tol_um : dflt;
+    p /= 4;
+    return p < 1 ? 1 : p;
+}
+
+static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
+                  const struct pk_gc_env *env, int jog, struct pk_gc_state *n,
+                  struct pk_gc_cmd *cmd)
+{
+    /* n == st (pk_gcode_interp): in place. Nothing is written before the
+     * block is fully validated, and the execute part reads each old value
+     * before it writes the new one, so *st is unchanged on any error. */
+    if (n != st)
+        *n = *st;
+    /* the arc/curve union is set up only by the blocks that use it (clearing
+     * its 136 bytes on every line costs ~550 cycles on an AVR) */
+    memset(cmd, 0, offsetof(struct pk_gc_cmd, u));
+    cmd->line_number = 0;
+    uint16_t words = b->words;
+    uint8_t axis_cmd = b->axis_cmd;
+    uint8_t motion = (b->groups & PK_GC_GBIT(PK_GC_G_MOTION)) ? b->motion : st->motion;
+    uint8_t units = (b->groups & PK_GC_GBIT(PK_GC_G_UNITS)) ? b->units : st->units;
+    uint8_t distance = (b->groups & PK_GC_GBIT(PK_GC_G_DISTANCE)) ? b->distance : st->distance;
+    uint8_t plane = (b->groups & PK_GC_GBIT(PK_GC_G_PLANE)) ? b->plane : st->plane;
+    uint8_t feedmode = (b->groups & PK_GC_GBIT(PK_GC_G_FEEDMODE)) ? b->feedmode : st->feedmode;
+    uint8_t wcs = (b->groups & PK_GC_GBIT(PK_GC_G_WCS)) ? b->wcs : st->wcs;
+    uint8_t nonmodal = (b->groups & PK_GC_GBIT(PK_GC_G_NONMODAL)) ? b->nonmodal : PK_GC_NM_NONE;
+    /* the path mode of this block applies to its own arcs and curves */
+    uint8_t path = st->path;
+    pk_um_t path_tol = st->tol_um;
     if (b->groups & PK_GC_GBIT(PK_GC_G_PATH)) {
-        n.path = b->path;
-        if (b->path == PK_GC_PATH_BLEND) {
-            n.tol_um = 0;
-            if (has(b, PK_GC_W_P)) {
-                int64_t t = pk_gcode_len_um(b->v[PK_GC_W_P], n.units);
-                if (t < 0)
-                    return PK_GC_E_NEGATIVE;
-                if (t > PK_UM_MAX)
-                    return PK_GC_E_BAD_NUMBER;
-                n.tol_um = (pk_um_t)t;
-                used |= PK_GC_WBIT(PK_GC_W_P);
+        path = b->path;
+        path_tol = 0;
+        if (b->path == PK_GC_PATH_BLEND && has(b, PK_GC_W_P)) {
+            int32_t t;
+            if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &t) != PK_GC_OK ||
+                t > 10000)
+                return PK_GC_E_BAD_NUMBER; /* the smoother's range: 0..10 mm */
+            path_tol = t;
+        }
+    }
+    if (jog) {
+        motion = PK_GC_MOT_LINEAR;
+        feedmode = PK_GC_UNITS_PER_MIN;
+    }
+    uint16_t axis_words = words & PK_GC_AXIS_WORDS;
+    int rc;
+
+    /* [0] implicit motion command */
+    if (axis_words && axis_cmd == PK_GC_AXCMD_NONE)
+        axis_cmd = PK_GC_AXCMD_MOTION;
+    /* line number */
+    cmd->line_number = -1;
+    if (has(b, PK_GC_W_N)) {
+        uint32_t ln = word_uint(b, PK_GC_W_N);
+        if (b->m[PK_GC_W_N] > 0 && ln > PK_GC_N_MAX)
+            return PK_GC_E_LINE_NUMBER;
+        cmd->line_number = (int32_t)ln;
+    }
+    /* [2. Set feed rate mode] [3. Set feed rate] */
+    int32_t f = 0;
+    if (jog) {
+        if (!has(b, PK_GC_W_F))
+            return PK_GC_E_UNDEFINED_FEED;
+        if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+            return PK_GC_E_BAD_NUMBER;
+    } else if (feedmode == PK_GC_INVERSE_TIME) {
+        if (axis_cmd == PK_GC_AXCMD_MOTION && motion != PK_GC_MOT_NONE &&
+            motion != PK_GC_MOT_RAPID && !has(b, PK_GC_W_F))
+            return PK_GC_E_UNDEFINED_FEED;
+        if (has(b, PK_GC_W_F) &&
+            pk_gcode_scaled(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], 3, &f) != PK_GC_OK)
+            return PK_GC_E_BAD_NUMBER; /* 1/min, in thousandths */
+    } else {
+        if (has(b, PK_GC_W_F)) {
+            if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+                return PK_GC_E_BAD_NUMBER;
+        } else if (st->feedmode == PK_GC_UNITS_PER_MIN) {
+            f = st->feed;
+        } /* else: G93 -> G94 without F: undefined */
+    }
+    if (f > PK_GC_FEED_MAX)
+        return PK_GC_E_BAD_NUMBER;
+    /* [4. Set spindle speed] */
+    int32_t s = st->spindle_s;
+    if (has(b, PK_GC_W_S) && pk_gcode_scaled(b->m[PK_GC_W_S], b->dec[PK_GC_W_S], 3, &s) != PK_GC_OK)
+        return PK_GC_E_BAD_NUMBER;
+    /* [9. Override control] M56 P0 disables parking, M56 (P1) enables it */
+    uint16_t used = 0;
+    uint8_t parking = st->parking_ovr;
+    if (b->groups & PK_GC_GBIT(PK_GC_G_OVERRIDE)) {
+        parking = 1;
+        if (has(b, PK_GC_W_P)) {
+            if (b->m[PK_GC_W_P] == 0)
+                parking = 0;
+            used |= PK_GC_WBIT(PK_GC_W_P);
+        }
+    }
+    /* [10. Dwell] */
+    if (nonmodal == PK_GC_NM_DWELL) {
+        if (!has(b, PK_GC_W_P))
+            return PK_GC_E_VALUE_MISSING;
+        used |= PK_GC_WBIT(PK_GC_W_P);
+        int32_t ms;
+        if (pk_gcode_scaled(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], 3, &ms) != PK_GC_OK ||
+            (uint32_t)ms > PK_GC_DWELL_MAX_MS)
+            return PK_GC_E_BAD_NUMBER;
+        cmd->dwell_ms = (uint32_t)ms;
+    }
+    /* [11. Set active plane] */
+    uint8_t ax0, ax1, axl;
+    switch (plane) {
+    case PK_GC_PLANE_ZX: ax0 = 2; ax1 = 0; axl = 1; break;
+    case PK_GC_PLANE_YZ: ax0 = 1; ax1 = 2; axl = 0; break;
+    default: ax0 = 0; ax1 = 1; axl = PK_GC_AXES >= 3 ? 2 : PK_GC_AXES; break;
+    }
+    /* [12. Set length units] axis words to µm */
+    int32_t xyz[PK_GC_AXES];
+    for (int a = 0; a < PK_GC_AXES; a++) {
+        xyz[a] = 0;
+        if (has(b, PK_GC_W_X + a) &&
+            pk_gcode_len_um(b->m[PK_GC_W_X + a], b->dec[PK_GC_W_X + a], units, &xyz[a]) != PK_GC_OK)
+            return PK_GC_E_BAD_NUMBER;
+    }
+    /* [14. Cutter length compensation] G43.1: Z only */
+    if (axis_cmd == PK_GC_AXCMD_TLO && b->tlo == PK_GC_TLO_DYNAMIC &&
+        axis_words != PK_GC_WBIT(PK_GC_W_X + TLO_AXIS))
+        return PK_GC_E_G43_AXIS;
+#if PK_GC_AXES >= 3
+    if (axis_cmd == PK_GC_AXCMD_TLO && b->tlo == PK_GC_TLO_DYNAMIC && !in_range32(xyz[TLO_AXIS]))
+        return PK_GC_E_TRAVEL; /* an offset stays within the travel range */
+#endif
+    /* [15. Coordinate system selection] */
+    int32_t wcs_um[PK_GC_AXES];
+    memcpy(wcs_um, st->wcs_um, sizeof wcs_um);
+    if ((b->groups & PK_GC_GBIT(PK_GC_G_WCS)) && wcs != st->wcs) {
+        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, wcs, wcs_um) != 0)
+            return PK_GC_E_READ_FAIL;
+    }
+    /* [19. Remaining non-modal actions] */
+    int32_t target[PK_GC_AXES], coord[PK_GC_AXES], g92[PK_GC_AXES];
+    memcpy(target, st->pos_um, sizeof target);
+    memcpy(g92, st->g92_um, sizeof g92);
+    uint8_t coord_idx = 0;
+    if (nonmodal == PK_GC_NM_SET_COORD) {
+        if (!axis_words)
+            return PK_GC_E_NO_AXIS_WORDS;
+        if (!has(b, PK_GC_W_P) && !has(b, PK_GC_W_L))
+            return PK_GC_E_VALUE_MISSING;
+        uint32_t p = has(b, PK_GC_W_P) ? word_uint(b, PK_GC_W_P) : 0u;
+        if (p > 6u)
+            return 29; /* Grbl's STATUS_GCODE_UNSUPPORTED_COORD_SYS */
+        uint32_t l = has(b, PK_GC_W_L) && b->m[PK_GC_W_L] >= 0 ? word_uint(b, PK_GC_W_L) : 0u;
+        if (l != 20u && (l != 2u || has(b, PK_GC_W_R)))
+            return PK_GC_E_UNSUPPORTED;
+        used |= PK_GC_WBIT(PK_GC_W_L) | PK_GC_WBIT(PK_GC_W_P);
+        coord_idx = p > 0u ? (uint8_t)(p - 1u) : wcs;
+        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, coord_idx, coord) != 0)
+            return PK_GC_E_READ_FAIL;
+        for (int a = 0; a < PK_GC_AXES; a++) {
+            if (!has(b, PK_GC_W_X + a))
+                continue;
+            if (!word_ok(xyz[a]))
+                return PK_GC_E_TRAVEL;
+            int32_t v = l == 20u ? st->pos_um[a] - st->g92_um[a] - xyz[a] : xyz[a];
+#if PK_GC_AXES >= 3
+            if (l == 20u && a == TLO_AXIS)
+                v -= st->tlo_um;
+#endif
+            if (!in_range32(v))
+                return PK_GC_E_TRAVEL;
+            coord[a] = v;
+        }
+    } else if (nonmodal == PK_GC_NM_SET_OFFSET) {
+        if (!axis_words)
+            return PK_GC_E_NO_AXIS_WORDS;
+        for (int a = 0; a < PK_GC_AXES; a++) {
+            if (!has(b, PK_GC_W_X + a))
+                continue;
+            if (!word_ok(xyz[a]) || !in_range32(wcs_um[a]))
+                return PK_GC_E_TRAVEL;
+            int32_t v = st->pos_um[a] - wcs_um[a] - xyz[a];
+#if PK_GC_AXES >= 3
+            if (a == TLO_AXIS)
+                v -= st->tlo_um;
+#endif
+            if (!in_range32(v))
+                return PK_GC_E_TRAVEL;
+            g92[a] = v;
+        }
+    } else {
+        if (axis_cmd != PK_GC_AXCMD_TLO && axis_words) {
+            for (int a = 0; a < PK_GC_AXES; a++) {
+                if (!has(b, PK_GC_W_X + a))
+                    continue;
+                int32_t v = xyz[a];
+                if (!word_ok(v) || !in_range32(wcs_um[a]))
+                    return PK_GC_E_TRAVEL;
+                if (nonmodal != PK_GC_NM_ABSOLUTE) {
+                    if (distance == PK_GC_ABSOLUTE) {
+                        v += wcs_um[a] + st->g92_um[a];
+#if PK_GC_AXES >= 3
+                        if (a == TLO_AXIS)
+                            v += st->tlo_um;
+#endif
+                    } else {
+                        v += st->pos_um[a];
+                    }
+                }
+                if (!in_range32(v))
+                    return PK_GC_E_TRAVEL;
+                target[a] = v;
             }
         }
-        cmd->what |= PK_GC_DO_PATH;
-        cmd->path = n.path;
-        cmd->tol_um = n.tol_um;
+        if (nonmodal == PK_GC_NM_HOME0 || nonmodal == PK_GC_NM_HOME1) {
+            unsigned idx = nonmodal == PK_GC_NM_HOME0 ? PK_GC_COORD_G28 : PK_GC_COORD_G30;
+            if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, idx, coord) != 0)
+                return PK_GC_E_READ_FAIL;
+            if (axis_words) {
+                for (int a = 0; a < PK_GC_AXES; a++)
+                    if (!has(b, PK_GC_W_X + a))
+                        coord[a] = st->pos_um[a];
+            } else {
+                axis_cmd = PK_GC_AXCMD_NONE;
+            }
+            for (int a = 0; a < PK_GC_AXES; a++)
+                if (!in_range(coord[a]))
+                    return PK_GC_E_TRAVEL;
+        } else if (nonmodal == PK_GC_NM_ABSOLUTE) {
+            if (motion != PK_GC_MOT_RAPID && motion != PK_GC_MOT_LINEAR)
+                return PK_GC_E_G53_MOTION;
+        }
     }
-    if (b->groups & PK_GC_GBIT(PK_GC_G_MOTION))
-        n.motion = b->motion;
-
-    uint16_t axes = b->words & PK_GC_AXIS_WORDS;
-    if ((b->groups & PK_GC_GBIT(PK_GC_G_NONMODAL)) && b->nonmodal == PK_GC_NM_SET_OFFSET) {
-        /* G92: the current position takes the given program coordinates. */
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!has(b, PK_GC_W_X + a))
-                continue;
-            int64_t p = pk_gcode_len_um(b->v[PK_GC_W_X + a], n.units);
-            if (p < -PK_UM_MAX || p > PK_UM_MAX)
-                return PK_GC_E_BAD_TARGET;
-            n.offset_um[a] = (pk_um_t)(n.pos_um[a] - p);
-        }
-        used |= axes;
-        cmd->what |= PK_GC_DO_OFFSET;
-    } else if (axes != 0 || (n.motion >= PK_GC_MOT_CUBIC && n.motion != PK_GC_MOT_NONE &&
-                             (b->words & VALUE_WORDS))) {
-        if (n.motion == PK_GC_MOT_NONE)
+    /* [20. Motion modes] */
+    int32_t pq[2] = { 0, 0 };
+    if (motion == PK_GC_MOT_NONE) {
+        if (axis_words)
             return PK_GC_E_UNUSED_WORDS;
-        if (n.motion == PK_GC_MOT_CW_ARC || n.motion == PK_GC_MOT_CCW_ARC)
-            return PK_GC_E_UNSUPPORTED;
-        if (axes == 0)
-            return PK_GC_E_NO_AXIS_WORDS;  /* G5/G5.1 words without an end point */
-        int64_t start[PK_GC_AXES], target[PK_GC_AXES];
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            start[a] = n.pos_um[a];
-            target[a] = n.pos_um[a];
-            if (!has(b, PK_GC_W_X + a))
-                continue;
-            int64_t p = pk_gcode_len_um(b->v[PK_GC_W_X + a], n.units);
-            target[a] = n.distance == PK_GC_INCREMENTAL ? start[a] + p : p + n.offset_um[a];
-            if (!in_travel(&n.lim, a, target[a]))
-                return PK_GC_E_TRAVEL;
+    } else if (axis_cmd == PK_GC_AXCMD_MOTION) {
+        if (motion == PK_GC_MOT_RAPID) {
+            if (!axis_words)
+                axis_cmd = PK_GC_AXCMD_NONE;
+        } else {
+            if (f == 0)
+                return PK_GC_E_UNDEFINED_FEED;
+            switch (motion) {
+            case PK_GC_MOT_LINEAR:
+                if (!axis_words)
+                    axis_cmd = PK_GC_AXCMD_NONE;
+                break;
+            case PK_GC_MOT_CW_ARC:
+            case PK_GC_MOT_CCW_ARC: {
+                if (!axis_words)
+                    return PK_GC_E_NO_AXIS_WORDS;
+                if (!(axis_words & (PK_GC_WBIT(PK_GC_W_X + ax0) | PK_GC_WBIT(PK_GC_W_X + ax1))))
+                    return PK_GC_E_NO_AXIS_IN_PLANE;
+                struct pk_arc_geom g;
+                memset(&g, 0, sizeof g);
+                memcpy(g.start, st->pos_um, sizeof g.start);
+                memcpy(g.end, target, sizeof g.end);
+                g.a0 = ax0;
+                g.a1 = ax1;
+                g.al = axl;
+                g.cw = motion == PK_GC_MOT_CW_ARC;
+                if (has(b, PK_GC_W_R)) {
+                    used |= PK_GC_WBIT(PK_GC_W_R);
+                    if (memcmp(st->pos_um, target, sizeof target) == 0)
+                        return PK_GC_E_BAD_TARGET;
+                    int32_t r;
+                    if (pk_gcode_len_um(b->m[PK_GC_W_R], b->dec[PK_GC_W_R], units, &r) != PK_GC_OK ||
+                        r > (INT32_C(1) << 30) || r < -(INT32_C(1) << 30))
+                        return PK_GC_E_BAD_TARGET;
+                    rc = pk_arc_centre_r(&g, r);
+                } else {
+                    uint16_t ijk_plane = (uint16_t)(PK_GC_WBIT(PK_GC_W_I + ax0) | PK_GC_WBIT(PK_GC_W_I + ax1));
+                    if (!(words & ijk_plane))
+                        return PK_GC_E_NO_OFFSETS;
+                    used |= PK_GC_WBIT(PK_GC_W_I) | PK_GC_WBIT(PK_GC_W_J) | PK_GC_WBIT(PK_GC_W_K);
+                    int32_t o[2] = { 0, 0 };
+                    for (int k = 0; k < 2; k++) {
+                        int w = PK_GC_W_I + (k == 0 ? ax0 : ax1);
+                        if (has(b, w) && pk_gcode_len_um(b->m[w], b->dec[w], units, &o[k]) != PK_GC_OK)
+                            return PK_GC_E_BAD_TARGET;
+                    }
+                    rc = pk_arc_centre_ijk(&g, o[0], o[1]);
+                }
+                if (rc != PK_ARC_OK)
+                    return rc;
+                cmd->chord_tol_um = chord_tol(path, path_tol, env ? env->tol_default_um : 20);
+                if (pk_arc_plan(&cmd->u.arc, &g, cmd->chord_tol_um) != PK_ARC_OK)
+                    return PK_GC_E_BAD_TARGET;
+                int32_t lo[PK_AXES], hi[PK_AXES];
+                pk_arc_bounds(&cmd->u.arc, lo, hi);
+                for (int a = 0; a < PK_GC_AXES; a++)
+                    if (!in_range(lo[a]) || !in_range(hi[a]))
+                        return PK_GC_E_TRAVEL;
+                break;
+            }
+            case PK_GC_MOT_CUBIC:
+            case PK_GC_MOT_QUAD:
+                if (!axis_words)
+                    return PK_GC_E_NO_AXIS_WORDS;
+            {
+                pk_um_t ctrl[4][2];
+                rc = spline_ctrl(st, b, motion, units, plane, st->pos_um, target, ctrl, &used, pq);
+                if (rc != PK_GC_OK)
+                    return rc;
+                cmd->chord_tol_um = chord_tol(path, path_tol, env ? env->tol_default_um : 20);
+                pk_bez_init(&cmd->u.bez, (const pk_um_t(*)[2])ctrl, motion == PK_GC_MOT_QUAD,
+                            cmd->chord_tol_um);
+                break;
+            }
+            default: /* probes */
+                if (!axis_words)
+                    return PK_GC_E_NO_AXIS_WORDS;
+                if (memcmp(st->pos_um, target, sizeof target) == 0)
+                    return PK_GC_E_BAD_TARGET;
+                break;
+            }
         }
-        used |= axes;
-        if (n.motion != PK_GC_MOT_RAPID && n.feed_umpm <= 0)
-            return PK_GC_E_UNDEFINED_FEED;
-        int64_t pq[2] = { 0, 0 };
-        if (n.motion == PK_GC_MOT_CUBIC || n.motion == PK_GC_MOT_QUAD) {
-            int rc = spline_ctrl(&n, b, n.units, start, target, cmd, &used, pq);
-            if (rc != PK_GC_OK)
-                return rc;
+    }
+    /* [0. Non-specific error-checks] unused words */
+    if ((b->groups & PK_GC_GBIT(PK_GC_G_PATH)) && b->path == PK_GC_PATH_BLEND)
+        used |= PK_GC_WBIT(PK_GC_W_P); /* plotkin: G64 P<tolerance> */
+    used |= PK_GC_WBIT(PK_GC_W_N) | PK_GC_WBIT(PK_GC_W_F);
+    if (!jog)
+        used |= PK_GC_WBIT(PK_GC_W_S) | PK_GC_WBIT(PK_GC_W_T);
+    if (axis_cmd)
+        used |= PK_GC_AXIS_WORDS;
+    if (words & ~used & PK_GC_WBIT(PK_GC_W_Q))
+        return PK_GC_E_UNSUPPORTED; /* Q is not a Grbl word: error 20 there */
+    if (words & ~used)
+        return PK_GC_E_UNUSED_VALUE;
+
+    /* plotkin: a feed move must run at 1 mm/min or more */
+    int feed_move = axis_cmd == PK_GC_AXCMD_MOTION && motion != PK_GC_MOT_RAPID &&
+                    motion != PK_GC_MOT_NONE;
+    pk_gc_umpm_t move_feed = f;
+    if (feed_move && feedmode == PK_GC_INVERSE_TIME && !jog) {
+        /* G93: the move takes 1/F minutes: feed = length * F */
+        uint32_t len = (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC)
+                           ? pk_arc_length_um(&cmd->u.arc) : move_len(st->pos_um, target);
+        if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
+            return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */
+        uint64_t v = ((uint64_t)len * (uint64_t)f + 999u) / 1000u;
+        move_feed = v > (uint64_t)PK_GC_FEED_MAX ? PK_GC_FEED_MAX : (pk_gc_umpm_t)v;
+    }
+    if (feed_move && move_feed < PK_GC_FEED_MIN)
+        return PK_GC_E_UNDEFINED_FEED;
+
+    if (jog) {
+        if (b->groups & ~(PK_GC_GBIT(PK_GC_G_DISTANCE) | PK_GC_GBIT(PK_GC_G_UNITS) |
+                          PK_GC_GBIT(PK_GC_G_NONMODAL)))
+            return PK_GC_E_INVALID_JOG;
+        if (nonmodal != PK_GC_NM_ABSOLUTE && nonmodal != PK_GC_NM_NONE)
+            return PK_GC_E_INVALID_JOG;
+        if (axis_cmd == PK_GC_AXCMD_MOTION) {
+            cmd->what = PK_GC_DO_MOVE;
+            cmd->motion = PK_GC_MOT_LINEAR;
+            cmd->feed_umpm = f;
+            memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
+            memcpy(cmd->target_um, target, sizeof cmd->target_um);
+            memcpy(n->pos_um, target, sizeof n->pos_um);
+        }
+        return PK_GC_OK;
+    }
+
+    /* program end resets to G54: its offsets are read now (the only read
+     * that can fail), before anything is written */
+    pk_um_t g54_um[PK_GC_AXES];
+    if ((b->groups & PK_GC_GBIT(PK_GC_G_STOP)) && b->stop != PK_GC_STOP_OPTIONAL &&
+        b->stop != PK_GC_STOP_PAUSE && wcs != 0) {
+        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, 0, g54_um) != 0)
+            return PK_GC_E_READ_FAIL;
+    }
+
+    /* ---- execute: the new state and the actions, in Grbl's order ---- */
+    n->line_number = cmd->line_number < 0 ? 0 : cmd->line_number;
+    n->feedmode = feedmode;
+    n->feed = f;
+    if (s != st->spindle_s && st->spindle != PK_GC_SPINDLE_OFF)
+        cmd->what |= PK_GC_DO_SPINDLE;
+    n->spindle_s = s;
+    /* [5. Select tool] Grbl copies T every block: a block without T is T0 */
+    n->tool = has(b, PK_GC_W_T) ? (uint8_t)word_uint(b, PK_GC_W_T) : 0u;
+    if ((b->groups & PK_GC_GBIT(PK_GC_G_SPINDLE)) && b->spindle != st->spindle) {
+        cmd->what |= PK_GC_DO_SPINDLE;
+        cmd->spindle_state_changed = 1;
+        n->spindle = b->spindle;
+    }
+    cmd->spindle = n->spindle;
+    cmd->spindle_s = s;
+    if (b->groups & PK_GC_GBIT(PK_GC_G_COOLANT)) {
+        uint8_t c = b->coolant == 9 ? 0u
+                    : (uint8_t)(st->coolant | (b->coolant == 7 ? PK_GC_COOLANT_MIST : PK_GC_COOLANT_FLOOD));
+        if (c != st->coolant)
+            cmd->what |= PK_GC_DO_COOLANT;
+        n->coolant = c;
+    }
+    cmd->coolant = n->coolant;
+    n->parking_ovr = parking;
+    if (nonmodal == PK_GC_NM_DWELL)
+        cmd->what |= PK_GC_DO_DWELL;
+    n->plane = plane;
+    n->units = units;
+    if (axis_cmd == PK_GC_AXCMD_TLO) {
+        n->tlo = b->tlo;
+        pk_um_t t = 0;
+#if PK_GC_AXES >= 3
+        if (b->tlo == PK_GC_TLO_DYNAMIC)
+            t = xyz[TLO_AXIS];
+#endif
+        if (t != st->tlo_um) {
+            n->tlo_um = t;
+            cmd->what |= PK_GC_DO_WCO;
+        }
+    }
+    if (wcs != st->wcs) {
+        n->wcs = wcs;
+        memcpy(n->wcs_um, wcs_um, sizeof n->wcs_um);
+        cmd->what |= PK_GC_DO_WCO;
+    }
+    if (b->groups & PK_GC_GBIT(PK_GC_G_PATH)) {
+        /* plotkin: G64 P<tol> (units); without P the $12 default */
+        n->path = path;
+        n->tol_um = path_tol;
+        cmd->what |= PK_GC_DO_PATH;
+        cmd->path = n->path;
+        cmd->tol_um = n->tol_um;
+    }
+    n->distance = distance;
+    switch (nonmodal) {
+    case PK_GC_NM_SET_COORD:
+        cmd->what |= PK_GC_DO_COORD;
+        cmd->coord_idx = coord_idx;
+        memcpy(cmd->coord_um, coord, sizeof coord);
+        if (coord_idx == n->wcs) {
+            memcpy(n->wcs_um, coord, sizeof coord);
+            cmd->what |= PK_GC_DO_WCO;
+        }
+        break;
+    case PK_GC_NM_HOME0:
+    case PK_GC_NM_HOME1:
+        if (axis_cmd) {
+            cmd->what |= PK_GC_DO_VIA;
+            memcpy(cmd->via_um, target, sizeof target);
         }
         cmd->what |= PK_GC_DO_MOVE;
-        cmd->motion = n.motion;
-        cmd->feed_umpm = n.motion == PK_GC_MOT_RAPID ? 0 : n.feed_umpm;
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            cmd->start_um[a] = (pk_um_t)start[a];
-            cmd->target_um[a] = (pk_um_t)target[a];
-            n.pos_um[a] = (pk_um_t)target[a];
-        }
-        n.cubic_prev = n.motion == PK_GC_MOT_CUBIC;
-        n.prev_pq_um[0] = (pk_um_t)pq[0];
-        n.prev_pq_um[1] = (pk_um_t)pq[1];
+        cmd->motion = PK_GC_MOT_RAPID;
+        cmd->laser_off = 1;
+        memcpy(cmd->start_um, axis_cmd ? target : st->pos_um, sizeof cmd->start_um);
+        memcpy(cmd->target_um, coord, sizeof coord);
+        memcpy(n->pos_um, coord, sizeof coord);
+        break;
+    case PK_GC_NM_SET_HOME0:
+    case PK_GC_NM_SET_HOME1:
+        cmd->what |= PK_GC_DO_COORD;
+        cmd->coord_idx = nonmodal == PK_GC_NM_SET_HOME0 ? PK_GC_COORD_G28 : PK_GC_COORD_G30;
+        memcpy(cmd->coord_um, st->pos_um, sizeof cmd->coord_um);
+        break;
+    case PK_GC_NM_SET_OFFSET:
+        memcpy(n->g92_um, g92, sizeof g92);
+        cmd->what |= PK_GC_DO_WCO;
+        break;
+    case PK_GC_NM_RESET_OFFSET:
+        memset(n->g92_um, 0, sizeof n->g92_um);
+        cmd->what |= PK_GC_DO_WCO;
+        break;
+    default:
+        break;
     }
-    if (b->words & ~used & VALUE_WORDS)
-        return PK_GC_E_UNUSED_VALUE;
-    if (b->groups & PK_GC_GBIT(PK_GC_G_STOP)) {
-        /* M2/M30: end of program; the executor lifts the pen after the move.
-         * Modal state returns to the defaults Grbl restores. */
+    n->motion = motion;
+    if (motion != PK_GC_MOT_NONE && axis_cmd == PK_GC_AXCMD_MOTION) {
+        cmd->what |= PK_GC_DO_MOVE;
+        cmd->motion = motion;
+        cmd->feed_umpm = motion == PK_GC_MOT_RAPID ? 0 : move_feed;
+        cmd->laser_off = !(motion == PK_GC_MOT_LINEAR || motion == PK_GC_MOT_CW_ARC ||
+                           motion == PK_GC_MOT_CCW_ARC || motion == PK_GC_MOT_CUBIC ||
+                           motion == PK_GC_MOT_QUAD);
+        memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
+        memcpy(cmd->target_um, target, sizeof cmd->target_um);
+        /* a probe's end is where the probe triggers: synced by the engine */
+        if (motion < PK_GC_MOT_PROBE_TOWARD)
+            memcpy(n->pos_um, target, sizeof n->pos_um);
+        n->cubic_prev = motion == PK_GC_MOT_CUBIC;
+        n->prev_pq_um[0] = pq[0];
+        n->prev_pq_um[1] = pq[1];
+    }
+    /* [21. Program flow] */
+    if ((b->groups & PK_GC_GBIT(PK_GC_G_STOP)) && b->stop != PK_GC_STOP_OPTIONAL) {
         cmd->what |= PK_GC_DO_STOP;
-        n.motion = PK_GC_MOT_LINEAR;
-        n.distance = PK_GC_ABSOLUTE;
-        n.path = PK_GC_PATH_BLEND;
-        n.pen = PK_GC_PEN_UP;
-        n.cubic_prev = 0;
+        cmd->stop = b->stop;
+        if (b->stop != PK_GC_STOP_PAUSE) {
+            /* LinuxCNC's (and Grbl's) program end: G1 G17 G90 G94 G54 M5 M9;
+             * other groups, offsets and F S T stay. */
+            n->motion = PK_GC_MOT_LINEAR;
+            n->plane = PK_GC_PLANE_XY;
+            n->distance = PK_GC_ABSOLUTE;
+            n->feedmode = PK_GC_UNITS_PER_MIN;
+            if (n->wcs != 0)
+                memcpy(n->wcs_um, g54_um, sizeof n->wcs_um);
+            n->wcs = 0;
+            n->spindle = PK_GC_SPINDLE_OFF;
+            n->coolant = 0;
+            n->cubic_prev = 0;
+            cmd->what |= PK_GC_DO_WCO;
+        }
     }
-    *st = n;
     return PK_GC_OK;
+}
+
+int pk_gcode_interp(struct pk_gc_state *st, const struct pk_gc_block *b,
+                    const struct pk_gc_env *env, struct pk_gc_cmd *cmd)
+{
+    return interp(st, b, env, 0, st, cmd);
+}
+
+int pk_gcode_jog(const struct pk_gc_state *st, const struct pk_gc_block *b, struct pk_gc_cmd *cmd)
+{
+    struct pk_gc_state n;
+    return interp(st, b, NULL, 1, &n, cmd);
 }

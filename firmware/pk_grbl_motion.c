@@ -8,26 +8,27 @@
 
 static int map_rc(int rc)
 {
-    if (rc == PK_MOTION_OK)
-        return PK_GRBL_M_OK;
-    if (rc == PK_MOTION_EFULL)
-        return PK_GRBL_M_FULL;
-    return PK_GRBL_M_ERROR;
+    switch (rc) {
+    case PK_MOTION_OK: return PK_GRBL_M_OK;
+    case PK_MOTION_EFULL: return PK_GRBL_M_FULL;
+    case PK_MOTION_ETRAVEL: return PK_GRBL_M_ETRAVEL;
+    default: return PK_GRBL_M_ERROR;
+    }
 }
 
 static struct pk_machine *mach(void *ctx) { return ((struct pk_grbl_motion *)ctx)->m; }
 
-static uint32_t u6_div(pk_gc_u6_t v, int64_t d) { return (uint32_t)pk_div_round64(v, d); }
+static uint32_t ival(const struct pk_grbl_settings *s, int i) { return (uint32_t)s->v[i]; }
 
 static void smooth_cfg(const struct pk_grbl_settings *s, int exact, pk_um_t tol_um,
                        struct pk_smooth_cfg *c)
 {
     memset(c, 0, sizeof *c);
-    c->sharp_turn_deg = (uint16_t)u6_div(s->v[PK_GRBL_S_CORNER_DEG], 1000000);
-    c->scheme = (uint8_t)u6_div(s->v[PK_GRBL_S_SCHEME], 1000000);
-    c->degree = (uint8_t)u6_div(s->v[PK_GRBL_S_DEGREE], 1000000);
-    c->depth = (uint8_t)u6_div(s->v[PK_GRBL_S_DEPTH], 1000000);
-    uint32_t mode = u6_div(s->v[PK_GRBL_S_SMOOTH_MODE], 1000000);
+    c->sharp_turn_deg = (uint16_t)ival(s, PK_GRBL_S_CORNER_DEG);
+    c->scheme = (uint8_t)ival(s, PK_GRBL_S_SCHEME);
+    c->degree = (uint8_t)ival(s, PK_GRBL_S_DEGREE);
+    c->depth = (uint8_t)ival(s, PK_GRBL_S_DEPTH);
+    uint32_t mode = ival(s, PK_GRBL_S_SMOOTH_MODE);
     if (exact || mode == 0) {
         c->mode = PK_SMOOTH_OFF;
     } else if (mode == 1) {
@@ -41,50 +42,73 @@ static void smooth_cfg(const struct pk_grbl_settings *s, int exact, pk_um_t tol_
     }
 }
 
+/* µs -> ticks (at least one): us * tick_hz / 10^6, rounded. */
+static uint32_t us_ticks(uint32_t us, uint32_t tick_hz)
+{
+    uint64_t t = ((uint64_t)us * tick_hz + 500000u) / 1000000u;
+    return t > 0xffffffffu ? 0xffffffffu : (uint32_t)t;
+}
+
 void pk_grbl_motion_cfg(const struct pk_grbl_settings *s, uint32_t tick_hz,
                         struct pk_motion_cfg *cfg)
 {
     memset(cfg, 0, sizeof *cfg);
     cfg->axes = PK_AXES;
-    for (int a = 0; a < PK_AXES && a < 3; a++) {
-        /* 1e-6 steps/mm -> Q16.16: v * 65536 / 1e6 (v <= 1e10: fits int64) */
+    for (int a = 0; a < PK_AXES && a < PK_GC_AXES; a++) {
+        /* 1e-4 steps/mm -> Q16.16: v * 65536 / 10^4, rounded */
         cfg->steps_per_mm_q16[a] =
-            (pk_spmm_q16_t)pk_div_round64(s->v[PK_GRBL_S_STEPS_X + a] * 65536, 1000000);
-        cfg->max_rate[a] = u6_div(s->v[PK_GRBL_S_RATE_X + a], 1000);
-        cfg->accel[a] = u6_div(s->v[PK_GRBL_S_ACCEL_X + a], 1000);
+            (pk_spmm_q16_t)(((uint64_t)ival(s, PK_GRBL_S_STEPS_X + a) * 65536u + 5000u) / 10000u);
+        /* 1e-3 mm/min is µm/min; 1e-3 mm/s^2 is µm/s^2 */
+        cfg->max_rate[a] = ival(s, PK_GRBL_S_RATE_X + a);
+        cfg->accel[a] = ival(s, PK_GRBL_S_ACCEL_X + a);
     }
-    cfg->junction_dev_um = (pk_um_t)u6_div(s->v[PK_GRBL_S_JUNCTION_MM], 1000);
-    /* µs (1e-6 µs units) -> ticks: v * tick_hz / 1e12, at least one tick */
-    uint64_t pulse = (uint64_t)pk_div_round64(s->v[PK_GRBL_S_STEP_PULSE_US] / 1000 * (int64_t)tick_hz,
-                                              1000000000);
-    uint64_t setup = (uint64_t)pk_div_round64(s->v[PK_GRBL_S_DIR_SETUP_US] / 1000 * (int64_t)tick_hz,
-                                              1000000000);
-    cfg->step_pulse_ticks = pulse < 1 ? 1u : (uint32_t)pulse;
-    cfg->dir_setup_ticks = (uint32_t)setup;
-    cfg->pen_settle_ms = u6_div(s->v[PK_GRBL_S_PEN_SETTLE_MS], 1000000);
+    cfg->junction_dev_um = (pk_um_t)ival(s, PK_GRBL_S_JUNCTION_MM);
+    uint32_t pulse = us_ticks(ival(s, PK_GRBL_S_STEP_PULSE_US), tick_hz);
+    cfg->step_pulse_ticks = pulse < 1u ? 1u : pulse;
+    cfg->dir_setup_ticks = us_ticks(ival(s, PK_GRBL_S_DIR_SETUP_US), tick_hz);
+    cfg->pen_settle_ms = ival(s, PK_GRBL_S_PEN_SETTLE_MS);
     cfg->pen_down_level = 1;
-    smooth_cfg(s, 0, (pk_um_t)u6_div(s->v[PK_GRBL_S_TOLERANCE_MM], 1000), &cfg->smooth);
+    cfg->lookahead_wait_ms = (uint16_t)ival(s, PK_GRBL_S_LOOKAHEAD_MS);
+    smooth_cfg(s, 0, (pk_um_t)ival(s, PK_GRBL_S_TOLERANCE_MM), &cfg->smooth);
+}
+
+static void to_machine(const pk_um_t t[PK_GC_AXES], pk_um_t p[PK_AXES])
+{
+    memset(p, 0, sizeof(pk_um_t) * PK_AXES);
+    for (int a = 0; a < PK_AXES && a < PK_GC_AXES; a++)
+        p[a] = t[a];
+}
+
+static pk_um_min_t feed_of(pk_gc_umpm_t feed)
+{
+    /* the interpreter refuses feeds below 1 mm/min; above 60 m/min is beyond
+     * every axis' max rate ($11x <= 60000), so the planner's clamp is the same */
+    return feed <= 0 ? 0u : (uint32_t)feed > PK_UM_MIN_MAX ? PK_UM_MIN_MAX : (pk_um_min_t)feed;
 }
 
 static int op_move(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, int rapid)
 {
     pk_um_t p[PK_AXES];
-    memset(p, 0, sizeof p);
-    for (int a = 0; a < PK_AXES && a < PK_GC_AXES; a++)
-        p[a] = t[a];
-    pk_um_min_t f = rapid ? PK_UM_MIN_MAX
-                    : feed < 1 ? 1u
-                    : (uint32_t)feed > PK_UM_MIN_MAX ? PK_UM_MIN_MAX
-                                                     : (pk_um_min_t)feed;
-    return map_rc(pk_machine_move(mach(ctx), p, f, rapid ? PK_MOVE_RAPID : PK_MOVE_FEED));
+    to_machine(t, p);
+    return map_rc(pk_machine_move(mach(ctx), p, rapid ? PK_UM_MIN_MAX : feed_of(feed),
+                                  rapid ? PK_MOVE_RAPID : PK_MOVE_FEED));
+}
+
+static int op_move_chord(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, pk_um_t err)
+{
+    pk_um_t p[PK_AXES];
+    to_machine(t, p);
+    return map_rc(pk_machine_move_chord(mach(ctx), p, feed_of(feed), err > 10000 ? 10000 : err));
 }
 
 static int op_pen(void *ctx, int down) { return map_rc(pk_machine_pen(mach(ctx), down != 0)); }
 
-static int op_dwell(void *ctx, uint32_t ms)
+static int op_spindle(void *ctx, uint16_t v, int sync)
 {
-    return map_rc(pk_machine_dwell(mach(ctx), ms > PK_DWELL_MS_MAX ? PK_DWELL_MS_MAX : ms));
+    return map_rc(pk_machine_spindle(mach(ctx), v, sync != 0));
 }
+
+static int op_dwell(void *ctx, uint32_t ms) { return map_rc(pk_machine_dwell(mach(ctx), ms)); }
 
 static int op_smoothing(void *ctx, int exact, pk_um_t tol_um)
 {
@@ -141,6 +165,17 @@ static int op_configure(void *ctx, const struct pk_grbl_settings *s)
     struct pk_grbl_motion *gm = ctx;
     struct pk_motion_cfg cfg;
     pk_grbl_motion_cfg(s, gm->hal->tick_hz, &cfg);
+    if (gm->ready) {
+        /* The step position stays; its mm value follows the new steps/mm, as
+         * in Grbl. Refuse a change that would put it beyond ±PK_UM_MAX. */
+        pk_steps_t st[PK_AXES];
+        pk_machine_position_steps(gm->m, st);
+        for (int a = 0; a < PK_AXES && a < (int)cfg.axes; a++) {
+            int64_t um = (int64_t)st[a] * 1000 * 65536 / (int64_t)cfg.steps_per_mm_q16[a];
+            if (um > PK_UM_MAX || um < -PK_UM_MAX)
+                return -1;
+        }
+    }
     /* First time: initialise. Afterwards: reconfigure, which keeps the step
      * position and changes nothing if it refuses (not idle, out of range). */
     int rc = gm->ready ? pk_machine_configure(gm->m, &cfg) : pk_machine_init(gm->m, &cfg, gm->hal);
@@ -151,12 +186,28 @@ static int op_configure(void *ctx, const struct pk_grbl_settings *s)
     return 0;
 }
 
+static int op_set_override(void *ctx, uint16_t feed_pct, uint16_t rapid_pct)
+{
+    return map_rc(pk_machine_set_override(mach(ctx), feed_pct, rapid_pct));
+}
+
+static int op_set_soft_limits(void *ctx, int on, const pk_um_t lo[PK_GC_AXES], const pk_um_t hi[PK_GC_AXES])
+{
+    pk_um_t l[PK_AXES], h[PK_AXES];
+    to_machine(lo, l);
+    to_machine(hi, h);
+    return map_rc(pk_machine_set_soft_limits(mach(ctx), on != 0, l, h));
+}
+
 /* A function rather than a const table: a table of pointers would be
  * writable (relocated) data, which the firmware never holds. */
 void pk_grbl_motion_ops(struct pk_grbl_machine_ops *o)
 {
+    memset(o, 0, sizeof *o);
     o->move = op_move;
+    o->move_chord = op_move_chord;
     o->pen = op_pen;
+    o->spindle = op_spindle;
     o->dwell = op_dwell;
     o->smoothing = op_smoothing;
     o->end = op_end;
@@ -169,4 +220,34 @@ void pk_grbl_motion_ops(struct pk_grbl_machine_ops *o)
     o->blocks_total = op_blocks_total;
     o->speed_umpm = op_speed;
     o->configure = op_configure;
+    o->set_override = op_set_override;
+    o->set_soft_limits = op_set_soft_limits;
+    o->probe = NULL; /* no probe input in the HAL yet: G38.x is refused loudly */
+    o->home = NULL;  /* no limit switches yet: $H is refused loudly */
+}
+
+/* ---- the HAL's store ---- */
+
+static int nvm_rd(void *ctx, uint32_t off, uint8_t *buf, size_t len)
+{
+    const struct pk_hal *h = ctx;
+    return h->ops->nvm_read(h->ctx, off, buf, len) == PK_HAL_OK ? 0 : -1;
+}
+
+static int nvm_wr(void *ctx, uint32_t off, const uint8_t *buf, size_t len)
+{
+    const struct pk_hal *h = ctx;
+    return h->ops->nvm_write(h->ctx, off, buf, len) == PK_HAL_OK ? 0 : -1;
+}
+
+void pk_grbl_motion_nvm(const struct pk_hal *hal, struct pk_grbl_nvm *nvm)
+{
+    memset(nvm, 0, sizeof *nvm);
+    uint32_t n = pk_hal_nvm_size(hal);
+    if (n == 0)
+        return;
+    nvm->read = nvm_rd;
+    nvm->write = nvm_wr;
+    nvm->ctx = (void *)(uintptr_t)hal; /* read-only use of the instance */
+    nvm->size = n;
 }

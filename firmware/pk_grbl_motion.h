@@ -3,19 +3,23 @@
  * drive a real plotkin machine (pk_motion.h).
  *
  * It turns the engine's machine ops into pk_machine_* calls and the Grbl
- * settings ($100 steps/mm, $110 rates, ...) into a struct pk_motion_cfg:
- *   steps/mm (1e-6 steps/mm) -> Q16.16, rates mm/min -> µm/min,
- *   accelerations mm/s^2 -> µm/s^2, $0 / $206 µs -> HAL ticks (at least 1),
- *   $11 mm -> µm, $12 mm -> tolerance µm, $200..$204 -> struct pk_smooth_cfg.
- * The first settings initialise the machine (pk_machine_init); later ones
- * go through pk_machine_configure, which keeps the step position (the mm
- * position follows a new steps/mm, as in Grbl) and refuses while moving.
+ * settings into a struct pk_motion_cfg: steps/mm (1e-4 steps/mm) -> Q16.16,
+ * rates mm/min -> µm/min, accelerations mm/s^2 -> µm/s^2, $0 / $206 µs ->
+ * HAL ticks (at least 1), $11 mm -> µm, $12 mm -> tolerance µm, $200..$204
+ * -> struct pk_smooth_cfg, $205 pen settle, $207 look-ahead wait.
+ * The first settings initialise the machine (pk_machine_init); later ones go
+ * through pk_machine_configure, which keeps the step position (the mm
+ * position follows a new steps/mm, as in Grbl) and refuses while moving; a
+ * steps/mm change that would put the current position beyond ±PK_UM_MAX is
+ * refused here (never wrapped).
+ * Moves map PK_MOTION_ETRAVEL (soft limits) to PK_GRBL_M_ETRAVEL; G38 and $H
+ * are PK_GRBL_M_ENOTSUP (no probe input, no limit switches yet).
  *
  * Usage:
  *     struct pk_grbl_motion gm = { &machine, &hal };
  *     struct pk_grbl_machine_ops ops;
  *     pk_grbl_motion_ops(&ops);
- *     pk_grbl_init(&g, &io, &ops, &gm, NULL);
+ *     pk_grbl_init(&g, &io, &ops, &gm, NULL, &nvm);
  * Calling context: MAIN (as the engine).
  */
 #ifndef PLOTKIN_PK_GRBL_MOTION_H
@@ -39,5 +43,9 @@ void pk_grbl_motion_ops(struct pk_grbl_machine_ops *ops);
 /** Build the motion configuration the settings describe (for tests and tools). */
 void pk_grbl_motion_cfg(const struct pk_grbl_settings *s, uint32_t tick_hz,
                         struct pk_motion_cfg *cfg);
+
+/** The engine's NVM callbacks onto the HAL's nvm_read/nvm_write (hal.h);
+ *  size 0 (no store) if the HAL has none. hal must outlive the engine. */
+void pk_grbl_motion_nvm(const struct pk_hal *hal, struct pk_grbl_nvm *nvm);
 
 #endif

@@ -14,6 +14,14 @@
 
 enum { PK_REQ_MOVE = 0, PK_REQ_PEN, PK_REQ_DWELL, PK_REQ_SMOOTH, PK_REQ_END, PK_REQ_SPINDLE };
 
+/** Input cycles (pk_machine.cycle): probing, homing into the switches,
+ *  homing's pull-off (a move exempt from the limits). */
+enum { CYC_NONE = 0, CYC_PROBE = 1, CYC_HOME = 2, CYC_PULL = 3 };
+
+#if PK_MACHINE_INQ < 2
+#error "PK_MACHINE_INQ must hold a move and its end (>= 2)"
+#endif
+
 /** Work items per poll (bounds the main-loop latency). */
 #define POLL_BUDGET 64u
 
@@ -43,6 +51,8 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
     if (c->step_pulse_ticks < 1u || c->dir_setup_ticks > tick_hz)
         return -1;
     if (c->pen_settle_ms > 60000u || c->pen_down_level > 1u || c->lookahead_wait_ms > 60000u)
+        return -1;
+    if ((c->input_invert & ~(uint32_t)PK_IN_ALL) != 0u)
         return -1;
     if (pk_stroke_check(&c->smooth) != 0)
         return -1;
@@ -91,6 +101,50 @@ static void setup_modules(struct pk_machine *m)
     pk_sg_init(&m->sg, m->cfg.axes, hal->tick_hz, cfg->step_pulse_ticks, cfg->dir_setup_ticks);
 }
 
+/* ----------------------------------------------------------- inputs */
+
+/* The watches the step path applies: hard limits (except during homing),
+ * and the cycle's own. */
+static uint8_t watch_bits(const struct pk_machine *m, uint8_t cycle)
+{
+    uint8_t w = (m->hard_limits && cycle != CYC_HOME && cycle != CYC_PULL) ? PK_SGW_LIMITS : 0u;
+    if (cycle == CYC_PROBE)
+        w |= PK_SGW_PROBE;
+    if (cycle == CYC_HOME)
+        w |= PK_SGW_HOME;
+    return w;
+}
+
+/* The HAL's edge callback: new raw levels (edge context, never concurrent
+ * with the step timer callback: hal.h). */
+static void input_edge(void *arg, uint32_t raw, uint64_t tick)
+{
+    struct pk_machine *m = arg;
+    (void)tick;
+    pk_sg_inputs(&m->sg, pk_hal_input_logical(m->hal, raw) ^ m->sg.in_flip, 0);
+}
+
+/* Read the inputs from MAIN and apply them (edge semantics). */
+static int inputs_refresh(struct pk_machine *m)
+{
+    uint32_t lv;
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    int r = pk_hal_input_read(m->hal, &lv);
+    if (r == PK_HAL_OK)
+        pk_sg_inputs(&m->sg, lv ^ m->sg.in_flip, 0);
+    pk_hal_irq_restore(m->hal, tok);
+    return r;
+}
+
+/* The step generator's input settings from cfg and the machine (after
+ * pk_sg_init). */
+static void inputs_setup(struct pk_machine *m)
+{
+    m->sg.in_flip = (uint16_t)(m->cfg.input_invert & m->hal->inputs);
+    m->sg.poll_in = m->in_poll ? 1u : 0u;
+    m->sg.watch = watch_bits(m, m->cycle);
+}
+
 int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
                     const struct pk_hal *hal)
 {
@@ -118,6 +172,18 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
     r = pk_hal_tool_write(hal, cfg->pen_down_level ^ 1u);
     if (r != 0 && r != PK_HAL_ENOSYS)
         return PK_MOTION_EHAL;
+    if (hal->inputs != 0u) {
+        inputs_setup(m);
+        r = pk_hal_input_watch(hal, input_edge, m);
+        if (r == PK_HAL_ENOSYS)
+            m->in_poll = true;
+        else if (r != 0)
+            return PK_MOTION_EHAL;
+        inputs_setup(m);
+        if (inputs_refresh(m) != PK_HAL_OK)
+            return PK_MOTION_EHAL;
+        m->sg.in_rise = 0;
+    }
     return PK_MOTION_OK;
 }
 
@@ -126,7 +192,7 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     if (cfg == NULL || check_cfg(cfg, m->hal->tick_hz) != 0)
         return PK_MOTION_EINVAL;
     enum pk_machine_state st = pk_machine_state(m);
-    if (st != PK_STATE_IDLE && st != PK_STATE_ALARM)
+    if ((st != PK_STATE_IDLE && st != PK_STATE_ALARM) || m->cycle != CYC_NONE)
         return PK_MOTION_EBUSY;
     if (st == PK_STATE_ALARM && (m->sg.busy || pk_sg_pending(&m->sg) > 0 || pk_mq_count(&m->mq) > 0
                                  || m->inq_count > 0 || pk_stroke_is_open(&m->stroke)))
@@ -137,10 +203,19 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
         return PK_MOTION_ERANGE;
     uint8_t dir = m->sg.dir_cur, alarm = m->sg.alarm;
     uint32_t lines = m->lines_planned;
+    /* the edge callback writes the input state the re-init clears */
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    uint8_t fired = m->sg.fired;
+    uint16_t in_now = m->sg.in_now, in_rise = m->sg.in_rise;
     m->cfg = *cfg;
     if (m->cfg.axes == 0)
         m->cfg.axes = PK_AXES;
     setup_modules(m);
+    m->sg.fired = fired;
+    m->sg.in_now = in_now;
+    m->sg.in_rise = in_rise;
+    inputs_setup(m);
+    pk_hal_irq_restore(m->hal, tok);
     for (unsigned i = 0; i < PK_AXES; i++) {
         m->sg.pos[i] = i < m->cfg.axes ? pos[i] : 0;
         m->target_steps[i] = m->sg.pos[i];
@@ -159,12 +234,12 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
 
 static bool alarmed(const struct pk_machine *m)
 {
-    return (m->sg.alarm) != 0;
+    return (m->sg.alarm) != 0 || (m->sg.fired & PK_SGW_LIMITS) != 0u;
 }
 
 static struct pk_req *req_slot(struct pk_machine *m)
 {
-    if (m->inq_count >= PK_MACHINE_INQ)
+    if (m->inq_count >= PK_MACHINE_INQ || m->cycle != CYC_NONE)
         return NULL;
     struct pk_req *r = &m->inq[(m->inq_head + m->inq_count) % PK_MACHINE_INQ];
     memset(r, 0, sizeof *r);
@@ -179,7 +254,7 @@ static int req_commit(struct pk_machine *m)
 
 uint32_t pk_machine_room(const struct pk_machine *m)
 {
-    return alarmed(m) ? 0u : (uint32_t)PK_MACHINE_INQ - m->inq_count;
+    return alarmed(m) || m->cycle != CYC_NONE ? 0u : (uint32_t)PK_MACHINE_INQ - m->inq_count;
 }
 
 /* Does the smoothing policy requested last (the one later moves will get)
@@ -293,6 +368,10 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     for (unsigned i = 0; i < m->cfg.axes; i++)
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
+    /* full: say so before the envelope below (a sender retries a refused
+     * move on every poll until there is room) */
+    if (m->inq_count >= PK_MACHINE_INQ)
+        return PK_MOTION_EFULL;
     {
         int32_t lo[PK_AXES], hi[PK_AXES];
         bool dlg = kind == PK_MOVE_FEED && policy_overshoots(&m->acc_policy);
@@ -728,10 +807,83 @@ static void check_idle(struct pk_machine *m)
     m->wait_since = 0;
 }
 
+/* Everything planned has been executed and nothing waits. */
+static bool motion_idle(const struct pk_machine *m)
+{
+    return !m->sg.busy && pk_sg_pending(&m->sg) == 0 && pk_mq_count(&m->mq) == 0
+           && m->inq_count == 0 && !pk_stroke_is_open(&m->stroke) && !m->line_pending;
+}
+
+/* A probing or homing move is over: keep its result, drop the rest of the
+ * motion (a reset from where the machine stands). */
+static void cycle_end(struct pk_machine *m, uint8_t result)
+{
+    pk_steps_t p[PK_AXES];
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    const pk_steps_t *src = (m->cycle == CYC_PROBE && result == PK_CYCLE_DONE) ? m->sg.probe_pos
+                                                                            : m->sg.pos;
+    memcpy(p, src, sizeof p);
+    uint8_t tripped = m->sg.lock;
+    m->cycle = CYC_NONE;
+    pk_hal_irq_restore(m->hal, tok);
+    (void)pk_machine_reset(m);
+    m->cycle_result = result;
+    m->cycle_tripped = tripped;
+    memcpy(m->cycle_pos, p, sizeof m->cycle_pos);
+}
+
+/* Follow a running probing / homing move. */
+static void cycle_poll(struct pk_machine *m)
+{
+    uint8_t f = m->sg.fired;
+    if (m->cycle == CYC_PROBE) {
+        if ((f & PK_SGW_PROBE) != 0u && !m->cycle_stop) {
+            m->cycle_stop = true;   /* decelerate as a feed hold, then drop the rest */
+            pk_sg_set_hold(&m->sg, true);
+            m->replan = true;
+        }
+        if (m->cycle_stop) {
+            if (m->sg.held && !m->sg.busy && pk_sg_pending(&m->sg) == 0)
+                cycle_end(m, PK_CYCLE_DONE);
+        } else if (motion_idle(m)) {
+            cycle_end(m, PK_CYCLE_MISSED);
+        }
+    } else if (m->cycle == CYC_PULL) {
+        if (motion_idle(m))
+            cycle_end(m, PK_CYCLE_DONE);
+    } else if ((f & PK_SGW_HOME) != 0u) {
+        cycle_end(m, PK_CYCLE_DONE);   /* the step path has stopped, or stops now */
+    } else if (motion_idle(m)) {
+        cycle_end(m, PK_CYCLE_MISSED);
+    }
+}
+
+/* In ALARM: a hard limit seen by the edge callback is latched once the step
+ * path is idle (the step path latches it itself at its next event); a cycle
+ * under way is aborted. */
+static void alarm_poll(struct pk_machine *m)
+{
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    if (m->sg.alarm == 0u && !m->sg.busy)
+        m->sg.alarm = PK_ALARM_HARD_LIMIT;
+    pk_hal_irq_restore(m->hal, tok);
+    if (m->cycle != CYC_NONE) {
+        m->cycle = CYC_NONE;
+        m->cycle_result = PK_CYCLE_ABORTED;
+    }
+}
+
 void pk_machine_poll(struct pk_machine *m)
 {
-    if (alarmed(m))
+    if (m->in_poll && (m->sg.watch & PK_SGW_LIMITS) != 0u && !m->sg.busy
+        && m->sg.alarm == 0u && inputs_refresh(m) != PK_HAL_OK)
+        m->sg.alarm = PK_ALARM_INPUT_READ;   /* no edge reports: look for a limit while idle */
+    if (alarmed(m)) {
+        alarm_poll(m);
         return;
+    }
+    if (m->cycle != CYC_NONE)
+        cycle_poll(m);
     take_requests(m);
     check_idle(m);
     if (!drain_stroke(m))
@@ -757,7 +909,7 @@ void pk_machine_poll(struct pk_machine *m)
     uint32_t allowed = pk_planner_final(&m->planner);
     if (full && allowed < count - 1u)
         allowed = count - 1u;
-    if (m->hold_req)
+    if (m->hold_req || m->cycle_stop)
         allowed = count;
     else if (allowed == 0 && count > 0 && m->sg.busy && pk_sg_pending(&m->sg) < 2u)
         allowed = 1; /* starved while moving: run the stop-safe plan rather than underrun */
@@ -802,7 +954,7 @@ void pk_machine_resume(struct pk_machine *m)
     if (!m->hold_req || alarmed(m))
         return;
     m->hold_req = false;
-    pk_sg_set_hold(&m->sg, false);
+    pk_sg_set_hold(&m->sg, m->cycle_stop);   /* a probe's stop goes on */
     m->replan = true;
 }
 
@@ -828,6 +980,15 @@ bool pk_machine_reset(struct pk_machine *m)
         if (low_rc != 0)
             m->sg.alarm = PK_ALARM_STEP_WRITE;
     }
+    uint32_t tok = pk_hal_irq_save(h);
+    m->sg.fired = 0;   /* a hard limit's alarm ends here too */
+    m->sg.lock = 0;
+    if (m->cycle != CYC_NONE)
+        m->cycle_result = PK_CYCLE_ABORTED;
+    m->cycle = CYC_NONE;
+    m->cycle_stop = false;
+    m->sg.watch = watch_bits(m, CYC_NONE);
+    pk_hal_irq_restore(h, tok);
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
     m->planner.n_final = 0;
@@ -891,6 +1052,8 @@ enum pk_machine_state pk_machine_state(const struct pk_machine *m)
 
 enum pk_alarm pk_machine_alarm(const struct pk_machine *m)
 {
+    if (m->sg.alarm == 0u && (m->sg.fired & PK_SGW_LIMITS) != 0u)
+        return PK_ALARM_HARD_LIMIT;
     return (enum pk_alarm)(m->sg.alarm);
 }
 
@@ -907,4 +1070,149 @@ uint32_t pk_machine_lines_planned(const struct pk_machine *m) { return m->lines_
 pk_um_min_t pk_machine_speed(const struct pk_machine *m)
 {
     return (pk_um_min_t)(m->sg.v_um_s) * 60u;
+}
+
+/* ----------------------------------------------------------- input cycles */
+
+int pk_machine_set_hard_limits(struct pk_machine *m, bool on)
+{
+    if (on && (m->hal->inputs & PK_IN_LIMITS) == 0u)
+        return PK_MOTION_ENOINPUT;
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    m->hard_limits = on;
+    m->sg.watch = watch_bits(m, m->cycle);
+    pk_hal_irq_restore(m->hal, tok);
+    return PK_MOTION_OK;
+}
+
+/* Arm the watches of a cycle, then look at the inputs (an edge after the
+ * look is reported with the watch armed), then queue the move and its end. */
+static int cycle_start(struct pk_machine *m, uint8_t kind, uint8_t axes, uint8_t probe_level,
+                       const pk_um_t target[PK_AXES], pk_um_min_t feed)
+{
+    uint32_t lv = 0;
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    m->sg.fired = 0;
+    m->sg.lock = 0;
+    m->sg.home_axes = axes;
+    m->sg.probe_level = probe_level;
+    m->sg.watch = watch_bits(m, kind);
+    int rr = kind == CYC_PULL ? PK_HAL_OK : pk_hal_input_read(m->hal, &lv);
+    if (rr == PK_HAL_OK && kind != CYC_PULL)
+        pk_sg_inputs(&m->sg, lv ^ m->sg.in_flip, 1);
+    uint8_t f = m->sg.fired;
+    if (rr != PK_HAL_OK || (f & PK_SGW_PROBE) != 0u)
+        m->sg.watch = watch_bits(m, CYC_NONE);
+    pk_hal_irq_restore(m->hal, tok);
+    if (rr != PK_HAL_OK)
+        return PK_MOTION_EHAL;
+    if ((f & PK_SGW_LIMITS) != 0u)
+        return PK_MOTION_EALARM;   /* a limit closed: the alarm is latched */
+    if ((f & PK_SGW_PROBE) != 0u) {
+        m->sg.fired = 0;
+        return PK_MOTION_ETRIGGERED;
+    }
+    bool soft = m->soft_on;
+    if (kind == CYC_HOME || kind == CYC_PULL)
+        m->soft_on = false;   /* homing runs past the travel box by design */
+    int rc = move_req(m, target, feed, PK_MOVE_FEED, 0);
+    m->soft_on = soft;
+    if (rc == PK_MOTION_OK)
+        rc = pk_machine_end(m);   /* run it to its end without waiting for more */
+    if (rc != PK_MOTION_OK) {
+        m->inq_count = 0;   /* nothing of it stays queued (the FIFO was empty: IDLE) */
+        m->acc_n = 0;
+        tok = pk_hal_irq_save(m->hal);
+        m->sg.watch = watch_bits(m, CYC_NONE);
+        m->sg.fired &= PK_SGW_LIMITS;
+        m->sg.lock = 0;
+        pk_hal_irq_restore(m->hal, tok);
+        return rc;
+    }
+    m->cycle = kind;
+    m->cycle_stop = false;
+    m->cycle_result = PK_CYCLE_RUNNING;
+    m->cycle_tripped = 0;
+    return PK_MOTION_OK;
+}
+
+int pk_machine_probe(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                     bool away)
+{
+    if (alarmed(m))
+        return PK_MOTION_EALARM;
+    if ((m->hal->inputs & (1u << PK_IN_PROBE)) == 0u)
+        return PK_MOTION_ENOINPUT;
+    if (m->cycle != CYC_NONE || pk_machine_state(m) != PK_STATE_IDLE)
+        return PK_MOTION_EBUSY;
+    return cycle_start(m, CYC_PROBE, 0u, away ? 0u : 1u, target, feed);
+}
+
+int pk_machine_home_seek(struct pk_machine *m, uint8_t axes, const pk_um_t target[PK_AXES],
+                         pk_um_min_t feed)
+{
+    uint32_t all = (1u << m->cfg.axes) - 1u;
+    if (alarmed(m))
+        return PK_MOTION_EALARM;
+    if (axes == 0u || (axes & ~all) != 0u || (m->hal->inputs & axes) != axes)
+        return PK_MOTION_ENOINPUT;
+    if (m->cycle != CYC_NONE || pk_machine_state(m) != PK_STATE_IDLE)
+        return PK_MOTION_EBUSY;
+    return cycle_start(m, CYC_HOME, axes, 0u, target, feed);
+}
+
+int pk_machine_home_pulloff(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed)
+{
+    if (alarmed(m))
+        return PK_MOTION_EALARM;
+    if (m->cycle != CYC_NONE || pk_machine_state(m) != PK_STATE_IDLE)
+        return PK_MOTION_EBUSY;
+    return cycle_start(m, CYC_PULL, 0u, 0u, target, feed);
+}
+
+enum pk_cycle_result pk_machine_cycle(const struct pk_machine *m, pk_steps_t pos[PK_AXES],
+                                      uint8_t *tripped)
+{
+    if (pos != NULL)
+        memcpy(pos, m->cycle_pos, sizeof m->cycle_pos);
+    if (tripped != NULL)
+        *tripped = m->cycle_tripped;
+    return (enum pk_cycle_result)m->cycle_result;
+}
+
+int pk_machine_set_position(struct pk_machine *m, const pk_steps_t pos[PK_AXES])
+{
+    if (m->cycle != CYC_NONE || pk_machine_state(m) != PK_STATE_IDLE)
+        return PK_MOTION_EBUSY;
+    if (!pos_fits(pos, &m->cfg))
+        return PK_MOTION_ERANGE;
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    for (uint32_t i = 0; i < m->cfg.axes; i++)
+        m->sg.pos[i] = pos[i];
+    pk_hal_irq_restore(m->hal, tok);
+    for (uint32_t i = 0; i < m->cfg.axes; i++) {
+        m->target_steps[i] = pos[i];
+        m->target_um[i] = pk_steps_to_um(pos[i], m->cfg.steps_per_mm_q16[i]);
+    }
+    m->acc_n = 0;
+    return PK_MOTION_OK;
+}
+
+uint32_t pk_machine_inputs(struct pk_machine *m)
+{
+    uint32_t lv;
+    if (pk_hal_input_read(m->hal, &lv) != PK_HAL_OK)
+        return 0u;
+    return lv ^ m->sg.in_flip;
+}
+
+uint32_t pk_machine_input_events(struct pk_machine *m)
+{
+    if (m->in_poll)
+        (void)inputs_refresh(m);
+    uint32_t tok = pk_hal_irq_save(m->hal);
+    uint32_t ev = m->sg.in_rise;
+    m->sg.in_rise = 0;
+    pk_hal_irq_restore(m->hal, tok);
+    return ev;
 }

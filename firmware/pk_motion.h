@@ -51,6 +51,27 @@
  * step lines after the failing call (it does not even try to lower a step
  * line whose raise failed), stops the timer, and keeps the reported position
  * equal to the pulses actually emitted. Only pk_machine_reset() leaves ALARM.
+ *
+ * Inputs (hal.h: limit switches, probe, door, buttons), when the board has
+ * them. The core registers an edge callback with the HAL at init (or, for a
+ * board without edge reports, reads the inputs itself) and offers:
+ *  - hard limits (pk_machine_set_hard_limits, Grbl $21): a limit switch that
+ *    closes, or one found closed when a line block starts, stops the step
+ *    output at the next step event (no pulse after it, no deceleration) and
+ *    latches PK_ALARM_HARD_LIMIT; the position stays the pulses emitted;
+ *  - a probing move (pk_machine_probe, G38.2-G38.5): at the contact the
+ *    position is recorded exactly (the pulses emitted before it), the machine
+ *    decelerates to a stop within its acceleration limits (a feed hold) and
+ *    the rest of the move is dropped; no contact by the end of the move is
+ *    reported as PK_CYCLE_MISSED (pk_machine_cycle);
+ *  - a homing move (pk_machine_home_seek): axes run toward their switches,
+ *    each stops at once when its switch closes (Grbl's axis lock), and the
+ *    move ends when all have (the cycle of pull-offs and locate moves is
+ *    pk_home.h's);
+ *  - the input levels and the buttons pressed (pk_machine_inputs,
+ *    pk_machine_input_events), for status reports and the Grbl buttons.
+ * The step path costs one byte test per step event and per chunk while no
+ * watch (hard limits, probe, homing) is armed.
  */
 #ifndef PLOTKIN_PK_MOTION_H
 #define PLOTKIN_PK_MOTION_H
@@ -85,8 +106,12 @@ enum pk_motion_status {
     PK_MOTION_EALARM = -23, /**< the machine is in ALARM: reset first; nothing changed */
     PK_MOTION_EHAL = -24,   /**< init: the HAL failed pk_hal_check() or a write failed */
     PK_MOTION_EBUSY = -25,  /**< configure: the machine is not idle; nothing changed */
-    PK_MOTION_ETRAVEL = -26 /**< soft limits on: the move (or the smoothed path it
+    PK_MOTION_ETRAVEL = -26, /**< soft limits on: the move (or the smoothed path it
                                  makes) would leave the travel box; nothing changed */
+    PK_MOTION_ENOINPUT = -27, /**< the board has no such input (probe, limit switch);
+                                   nothing changed */
+    PK_MOTION_ETRIGGERED = -28 /**< probe: already in the state the move waits for
+                                    (Grbl ALARM:4); nothing changed */
 };
 
 /** Machine state as reported to the user (maps onto Grbl's Idle/Run/Hold/Alarm). */
@@ -95,7 +120,8 @@ enum pk_machine_state {
     PK_STATE_RUN = 1,     /**< executing or about to (blocks queued, timer armed) */
     PK_STATE_HOLDING = 2, /**< feed hold requested, still decelerating (Grbl Hold:1) */
     PK_STATE_HOLD = 3,    /**< feed hold complete, stopped, queue kept (Grbl Hold:0) */
-    PK_STATE_ALARM = 4    /**< a HAL write failed; outputs frozen until reset */
+    PK_STATE_ALARM = 4    /**< a HAL write failed or a hard limit tripped; outputs
+                               frozen until reset */
 };
 
 /** Why the machine is in ALARM. */
@@ -106,7 +132,18 @@ enum pk_alarm {
     PK_ALARM_TOOL_WRITE = 3,  /**< pk_hal_tool_write returned non-zero */
     PK_ALARM_TIMER = 4,       /**< timer_start failed */
     PK_ALARM_INTERNAL = 5,    /**< an invariant failed (a bug): motion stopped */
-    PK_ALARM_SPINDLE_WRITE = 6 /**< pk_hal_spindle_write returned an error other than ENOSYS */
+    PK_ALARM_SPINDLE_WRITE = 6, /**< pk_hal_spindle_write returned an error other than ENOSYS */
+    PK_ALARM_HARD_LIMIT = 7,  /**< hard limits on and a limit switch closed (Grbl ALARM:1) */
+    PK_ALARM_INPUT_READ = 8   /**< pk_hal_input_read failed while the inputs were watched */
+};
+
+/** Outcome of the last probing or homing move (pk_machine_cycle). */
+enum pk_cycle_result {
+    PK_CYCLE_NONE = 0,     /**< none since init */
+    PK_CYCLE_RUNNING = 1,  /**< under way (the machine takes no other request) */
+    PK_CYCLE_DONE = 2,     /**< probe: contact made; homing: every switch closed */
+    PK_CYCLE_MISSED = 3,   /**< the move ended first (Grbl ALARM:5 / ALARM:9) */
+    PK_CYCLE_ABORTED = 4   /**< pk_machine_reset or an alarm ended it */
 };
 
 /** Kind of a linear move. */
@@ -145,6 +182,9 @@ struct pk_motion_cfg {
     uint32_t dir_setup_ticks;                 /**< direction set-up before a step edge, ticks */
     uint32_t pen_settle_ms;                   /**< dwell after each pen change, 0..60000 ms */
     uint8_t pen_down_level;                   /**< logical tool level meaning "pen down" (0/1) */
+    uint16_t input_invert;                    /**< PK_IN_* bits whose sense is flipped on
+                                                   top of the board's polarity (Grbl $5
+                                                   limits, $6 probe); 0: as wired */
     uint16_t lookahead_wait_ms;               /**< $207: how long a stroke waits for its next
                                                    move once everything before it has been
                                                    executed, before it is ended there
@@ -212,6 +252,14 @@ struct pk_machine {
     pk_um_t acc_prev[PK_AXES];           /**< the accepted position before it */
     uint32_t acc_d2[PK_AXES];            /**< max |second difference| per axis in the run */
 #endif
+    /* inputs (MAIN) */
+    bool in_poll;                        /**< the board reports no input edges */
+    bool hard_limits;                    /**< hard limits on */
+    uint8_t cycle;                       /**< probing / homing move running (pk_motion.c) */
+    bool cycle_stop;                     /**< the probe made contact: stopping, then drop */
+    uint8_t cycle_result;                /**< enum pk_cycle_result of the last one */
+    uint8_t cycle_tripped;               /**< homing: axes whose switch closed */
+    pk_steps_t cycle_pos[PK_AXES];       /**< probe: position at the contact (or the end) */
 };
 
 /**
@@ -237,7 +285,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
  * @retval PK_MOTION_OK      applied
  * @retval PK_MOTION_EINVAL  a setting is out of range; nothing changed
  * @retval PK_MOTION_EBUSY   not IDLE or ALARM (motion, queue or requests
- *                           pending); nothing changed
+ *                           pending, or a probing / homing move); nothing changed
  * Calling context: MAIN.
  */
 int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg);
@@ -395,6 +443,95 @@ bool pk_machine_reset(struct pk_machine *m);
  * into the machine; NULL turns it off. Takes effect for the next stroke.
  */
 void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *ctx);
+
+/**
+ * Hard limits (Grbl $21). On: a limit input that becomes active, moving or
+ * not, or one that is active when a line block starts or (on a board without
+ * edge reports) at any step event, stops the step output before the next step
+ * edge and latches PK_ALARM_HARD_LIMIT; the position is the pulses emitted.
+ * Homing moves are exempt (they run into the switches).
+ * @retval PK_MOTION_OK
+ * @retval PK_MOTION_ENOINPUT  on, but the board has no limit input
+ * MAIN, any state.
+ */
+int pk_machine_set_hard_limits(struct pk_machine *m, bool on);
+
+/**
+ * Probing move (G38.2-G38.5): a straight feed move to target (µm) at feed
+ * that watches the probe input. away = false: for the contact (the probe
+ * becoming active, G38.2/G38.3); away = true: for its loss (G38.4/G38.5).
+ * At that change the position is recorded (the pulses emitted before it), the
+ * machine decelerates along the move within its acceleration limits and the
+ * rest of the move is dropped; then the machine is IDLE and pk_machine_cycle
+ * says PK_CYCLE_DONE with the recorded position. The move ending first gives
+ * PK_CYCLE_MISSED with the position at its end. While it runs the machine
+ * takes no other request (they return PK_MOTION_EFULL: poll and retry);
+ * hold, resume and reset work as for any move (a reset: PK_CYCLE_ABORTED).
+ * Soft limits apply to target.
+ * @retval PK_MOTION_OK          started
+ * @retval PK_MOTION_EBUSY       not IDLE (Grbl waits for the queue to drain first)
+ * @retval PK_MOTION_ENOINPUT    the board has no probe input
+ * @retval PK_MOTION_ETRIGGERED  the probe already is in the state watched for
+ *                               (Grbl ALARM:4); nothing moved
+ * @retval PK_MOTION_EHAL        the inputs could not be read
+ * @retval as pk_machine_move otherwise (ERANGE, ETRAVEL, EALARM)
+ * MAIN.
+ */
+int pk_machine_probe(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
+                     bool away);
+
+/**
+ * Homing move (the primitive of pk_home.h's cycle): a straight feed move to
+ * target (µm) at feed, during which every axis of axes (bit i = axis i) stops
+ * stepping at the first step event at which its limit input is active (Grbl's
+ * axis lock: at once, no deceleration; the other axes go on along the same
+ * line). Once all of them are locked the motion stops at once and the rest
+ * is dropped: PK_CYCLE_DONE. The move ending first: PK_CYCLE_MISSED
+ * (pk_machine_cycle's tripped says which axes did lock). Hard limits and soft
+ * limits do not apply to it. While it runs the machine takes no other
+ * request (PK_MOTION_EFULL); a reset aborts it.
+ * @retval PK_MOTION_OK / EBUSY (not IDLE) / ENOINPUT (an axis of axes has no
+ *         limit input, or axes names no axis) / EHAL / as pk_machine_move
+ * MAIN.
+ */
+int pk_machine_home_seek(struct pk_machine *m, uint8_t axes, const pk_um_t target[PK_AXES],
+                         pk_um_min_t feed);
+
+/**
+ * Homing's pull-off: a straight feed move to target (µm) at feed, exempt from
+ * hard and soft limits (it starts on the switches), taking no other request
+ * while it runs; PK_CYCLE_DONE at its end. Returns as pk_machine_home_seek
+ * (no ENOINPUT). MAIN.
+ */
+int pk_machine_home_pulloff(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed);
+
+/**
+ * The last probing or homing move: its result, and (pointers may be NULL)
+ * pos: probe: the position at the contact (DONE) or where the move ended;
+ * homing: the position where it stopped; tripped: homing: the axes whose
+ * switch closed. MAIN.
+ */
+enum pk_cycle_result pk_machine_cycle(const struct pk_machine *m, pk_steps_t pos[PK_AXES],
+                                      uint8_t *tripped);
+
+/**
+ * Set the machine position (steps) without moving: homing's last step (Grbl
+ * sets the homed axes to their switch positions). Axes beyond cfg.axes are
+ * ignored. Every position must map into ±PK_UM_MAX µm.
+ * @retval PK_MOTION_OK / PK_MOTION_EBUSY (not IDLE) / PK_MOTION_ERANGE
+ * MAIN.
+ */
+int pk_machine_set_position(struct pk_machine *m, const pk_steps_t pos[PK_AXES]);
+
+/** Logical levels of the inputs now (PK_IN_* bits, 1 = active; 0 for a board
+ *  without inputs, or when the read fails). Reads the HAL. MAIN. */
+uint32_t pk_machine_inputs(struct pk_machine *m);
+
+/** Inputs that became active since the last call (PK_IN_* bits): a button
+ *  press between two calls is not lost on a board with edge reports; without
+ *  them, presses are seen at the calls and while the step path reads the
+ *  inputs. MAIN. */
+uint32_t pk_machine_input_events(struct pk_machine *m);
 
 /** Position in steps actually emitted (consistent snapshot). MAIN. */
 void pk_machine_position_steps(const struct pk_machine *m, pk_steps_t out[PK_AXES]);

@@ -34,70 +34,100 @@
 
 /* ------------------------------------------------------------------ prep */
 
-/* 64/32 division, rounded down, saturating at UINT32_MAX. */
-static uint32_t div64_32(uint64_t n, uint32_t d)
-{
-    if (d == 0)
-        return UINT32_MAX;
-    uint64_t q = n / d;
-    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
-}
-
+/* Squares of speeds, (µm/s)^2 Q8. */
 static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
 
-/* Distance (µm Q8) of event k of block b from its start: floor(k L / M). */
-static uint32_t ev_s(const struct pk_block *b, uint32_t k)
+/* A segment's clock: the time (ticks Q16) to cover d (µm Q8) at the mean
+ * speed vsum / 2 (µm/s Q4) is d num / vsum, num = tick_hz 2^13 (< 2^37,
+ * tick_hz <= 2^24). One division per segment (none while cruising: the
+ * clock is kept while vsum stays) gives the factor as a 32-bit mantissa kq
+ * and a byte shift ks in {0, 8, 16, 24}, so every time in the segment is one
+ * 32x32 product and a byte shift: (d kq) >> ks. ks is the largest that
+ * keeps kq below 2^32, so kq has at least 24 significant bits wherever
+ * num / vsum >= 1 (speeds below 8 km/s). (d kq) >> ks is the time of d, and
+ * every d here is within one segment: the product stays below 2^56. */
+static void clock_set(struct pk_stepgen *sg, uint32_t vsum)
 {
-    return (uint32_t)(((uint64_t)k * b->len_q8) / b->events);
+    if (vsum == sg->ck_vsum)
+        return;
+    sg->ck_vsum = vsum;
+    /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19) */
+    const uint64_t f = sg->tick_num >> 13; /* tick_hz */
+    uint8_t ks = vsum > (f << 5) ? 24u : (uint64_t)vsum << 3 > f ? 16u
+                 : (uint64_t)vsum << 11 > f ? 8u : 0u;
+    uint64_t q = (sg->tick_num << ks) / vsum;
+    if (q > UINT32_MAX)
+        q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
+    sg->ck_kq = (uint32_t)q;
+    sg->ck_ks = ks;
 }
 
-/* Events of b at or before distance s: the largest k with ev_s(k) <= s. */
-static uint32_t ev_upto(const struct pk_block *b, uint32_t s_q8)
+static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
 {
-    if (s_q8 >= b->len_q8)
-        return b->events;
-    uint64_t k = (((uint64_t)s_q8 + 1u) * b->events - 1u) / b->len_q8;
-    return k > b->events ? b->events : (uint32_t)k;
+    uint64_t p = (uint64_t)d_q8 * sg->ck_kq;
+    switch (sg->ck_ks) {
+    case 24: return p >> 24;
+    case 16: return p >> 16;
+    case 8: return p >> 8;
+    default: return p;
+    }
 }
 
-/* Time (ticks Q16) to cover ds (µm Q8) at the speed v (µm/s Q4):
- * ds / 256 / (v / 16) s = ds * 2^-4 / v s -> * tick_hz * 2^16. */
-static uint64_t time_q16(const struct pk_stepgen *sg, uint32_t ds_q8, uint32_t v_q4)
-{
-    if (v_q4 == 0)
-        return UINT64_MAX;
-    return ((uint64_t)ds_q8 * sg->tick_q12) / v_q4;
-}
-
-/* When a segment of duration T (ticks Q16) that covers its distance at the
- * mean speed vseg = vsum / 2 reaches the point d (µm Q8) from its start. At constant
- * speed: tau = d / vseg. The segment really accelerates (or decelerates)
+/* When a segment of T whole ticks (invT_q30 = 2^30 / T) that covers its
+ * distance at the mean speed vseg reaches a point that the mean speed reaches
+ * at tau (ticks Q16). The segment really accelerates (or decelerates)
  * uniformly from v0 to v1, which puts the point later (earlier) by
- *     eps = a tau (T - tau) / (2 v)  ~  r tau (T - tau) / (2 T),
- * r = |v1 - v0| / vseg (the error of using vseg for v is second order).
- * Without it the events next to a segment boundary are off by up to
- * r T / 8 against the ramp inside the segment, a jolt at every boundary. */
-static uint64_t at_time(const struct pk_stepgen *sg, uint32_t d_q8, uint32_t vsum,
-                        uint64_t T_q16, uint32_t r_q15, bool accel)
+ *     eps = a tau (T - tau) / (2 v(tau)),   a = (v1 - v0) / T,
+ * i.e. with r = |v1 - v0| / vseg and u = tau / T:
+ *     eps = r T u (1 - u) / 2 . vseg / v(tau),
+ * and vseg / v(tau) = 1 -+ r (2u - 1) / 2 to first order (the rest is
+ * second order in r, the speed's relative change over one segment: a few
+ * percent). Without it the events next to a segment boundary are off by up
+ * to r T / 8 against the interval ramp inside the segment: a jolt at every
+ * boundary.
+ * All in 32-bit products (an 8-bit chip's 64-bit multiply costs ~430
+ * cycles): t < T < 2^15 + 2^14, so t invT_q30 = 2^30 t / T < 2^30 and
+ * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
+ * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
+ * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
+static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
-    uint64_t tau = time_q16(sg, 2u * d_q8, vsum);
-    uint32_t T = (uint32_t)(T_q16 >> 16), t = (uint32_t)(tau >> 16);
+    uint32_t t = (uint32_t)(tau >> 16);
     if (T == 0 || t >= T || r_q15 == 0)
         return tau;
-    /* r_q15 t (T - t) / T in Q16: r_q15 * 2^-15 * t (T - t) / (2T) * 2^16
-     * (t (T - t) <= 2^26 for T < 2^14 ticks, times r_q15 <= 2^16: < 2^42) */
-    uint64_t eps = ((uint64_t)r_q15 * t * (T - t)) / T;
-    /* and v is v(tau) = vseg (1 +- r (tau/T - 1/2)): eps /= that, to first
-     * order eps -= eps r (2 tau - T) / 2T (eps < 2^26, r_q15 <= 2^16) */
-    uint64_t k = (eps * r_q15) >> 15;
-    uint64_t fix = (k * (uint32_t)(2u * t > T ? 2u * t - T : T - 2u * t)) / (2u * T);
-    if ((2u * t > T) == accel)
-        eps = eps > fix ? eps - fix : 0;
+    if (r_q15 > 0xFFFFu)
+        r_q15 = 0xFFFFu;
+    uint32_t u_q16 = (t * invT_q30) >> 14;
+    uint32_t w_q16 = (uint32_t)(uint16_t)u_q16 * (uint16_t)(0x10000u - u_q16) >> 16;
+    uint32_t eps = (((r_q15 * w_q16) >> 14) * T) >> 2;
+    /* first-order term: eps r |2u - 1| / 2 = (eps / 2^12) (r m / 2^20),
+     * m_q16 = |2u - 1| */
+    uint32_t m_q16 = 2u * u_q16 > 0x10000u ? 2u * u_q16 - 0x10000u : 0x10000u - 2u * u_q16;
+    if (m_q16 > 0xFFFFu)
+        m_q16 = 0xFFFFu;
+    uint32_t k = ((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16) >> 20;   /* Q11 */
+    uint32_t fix = (eps >> 12) * k;
+    if ((2u * u_q16 > 0x10000u) == accel)
+        eps = eps > fix ? eps - fix : 0u;
     else
         eps += fix;
     if (accel)
         return tau + eps;
-    return tau > eps ? tau - eps : 0;
+    return tau > eps ? tau - eps : 0u;
+}
+
+/* 2^30 / T, T whole ticks (>= 1). */
+static uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
+
+/* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
+ * so that the division is 32-bit. */
+static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
+{
+    while (vsum >= 65536u) {
+        vsum >>= 1;
+        dv >>= 1;
+    }
+    return (dv << 16) / (vsum ? vsum : 1u);
 }
 
 /* The block's cached speeds (isqrt only when the plan changed them). */
@@ -110,6 +140,7 @@ static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
     if (b->v2_exit != sg->c_v2_exit) {
         sg->c_v2_exit = b->v2_exit;
         sg->ve_q4 = pk_isqrt64(b->v2_exit << 4);
+        sg->ve_sq = sq64(sg->ve_q4);
     }
 }
 
@@ -126,7 +157,10 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
         sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
     if (sg->seg_max < 16u)
         sg->seg_max = 16u;
-    sg->tick_q12 = (uint64_t)tick_hz << 12;
+    sg->tick_num = (uint64_t)tick_hz << 13;
+    /* per block with full-length segments: ds = vsum g, dv = accel kdv */
+    sg->g_max_q24 = (uint32_t)(((uint64_t)8u * sg->seg_max << 24) / tick_hz);
+    sg->kdv_q24 = (uint32_t)(((uint64_t)sg->seg_max * 16u << 24) / tick_hz);
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
@@ -248,37 +282,70 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         sg->blk_sent = true;
         sg->v2_blk = sg->v2;
         sg->off_plan = sg->hold;
+        /* event k lies at floor(k L / M): stepped incrementally below */
+        sg->ev_q = b->len_q8 / b->events;
+        sg->ev_r = b->len_q8 % b->events;
+        sg->ev_next = sg->ev_q;
+        sg->ev_rem = sg->ev_r;
         /* The segment: 2 ms, or shorter so that at twice the nominal speed
          * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
-         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M. */
+         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
+         * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
+         * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
+         * products stay below 2^50). */
         blk_speeds(sg, b);
         uint32_t seg = sg->seg_max;
-        /* (an event is one step of the dominant axis, at most 1 mm * sqrt(3)
-         * at 1 step/mm: d64 < 2^29 µm Q8, and d64 * tick_hz < 2^61) */
-        uint64_t d64 = ((uint64_t)PK_SG_MAX_EVENTS * b->len_q8) / b->events;
-        uint64_t lim = (d64 * sg->tick_hz) / (16u * (2u * (uint64_t)sg->vn_q4 + 1u));
-        if (lim < seg)
+        uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
+        uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
+        if (room < need) {
+            uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
             seg = lim < 16u ? 16u : (uint32_t)lim;
-        sg->seg_ticks = seg;
-        /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz: g in Q16 */
-        sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz); /* < 2^41 / 1 MHz */
-        /* speed change per segment: a (µm/s^2) * seg / tick_hz, Q4 */
-        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+            /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
+             * segment a (µm/s^2) seg / tick_hz, Q4 */
+            sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
+            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+        } else {
+            sg->g_q24 = sg->g_max_q24;
+            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
+        }
         if (sg->dv_q4 == 0)
             sg->dv_q4 = 1;
+        sg->seg_ticks = seg;
+        sg->invT_q30 = inv_q30(seg);
+        /* longer segments (x2, x4) where the event limit and the recurrence's
+         * range allow: see seg_level */
+        uint8_t lv = 0;
+        while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
+               && room >= need << (lv + 1u))
+            lv++;
+        sg->lvl_max = lv;
     }
-    /* room for the segment's events: at most a few slots */
+    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
+     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
+     * at the highest override */
     if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
         return false;
     blk_speeds(sg, b);
-    const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4, dv = sg->dv_q4;
-    const uint64_t two_a = 2u * (uint64_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8 */
+    const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4;
+    const uint32_t two_a = 2u * (uint32_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8, < 2^31 */
     const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
-    const uint64_t v02 = sq64(v0), ve2 = sq64(ve);
+    const uint64_t v02 = sg->v_sq, ve2 = sg->hold ? 0u : sg->ve_sq;
     /* the speed^2 the end of the block allows here: the line
      * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
-    const uint64_t line0 = ve2 + two_a * (L - s0);
+    const uint64_t line0 = ve2 + (uint64_t)two_a * (L - s0);
+    /* the segment's length: the base one, doubled while the speed changes
+     * by at most 1/2^PK_SG_RAMP_SHIFT of itself over it (the interval ramp
+     * is a first-order model of the acceleration: its error grows as the
+     * square of that change), and always at the longest while cruising */
+    const bool cruise = !sg->hold && v0 == sg->vn_q4 && v02 < line0;
+    uint8_t lv = sg->lvl_max;
+    if (!cruise)
+        while (lv > 0 && v0 < (sg->dv_q4 << (lv + PK_SG_RAMP_SHIFT)))
+            lv--;
+    const uint32_t dv = sg->dv_q4 << lv, g_q24 = sg->g_q24 << lv;
     uint32_t v1, ds;
+    uint64_t v12 = 0;      /* v1^2 once known (0: not yet) */
+    bool full = true;   /* a whole segment of seg_ticks (else a phase ends inside) */
     if (sg->hold || (v02 >= line0 && v0 > ve) || v0 > sg->vn_q4) {
         /* decelerate: towards the exit (on the line), the nominal (an
          * override lowered it) or rest (a hold). A whole segment, or the
@@ -291,11 +358,15 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         }
         if (v0 > vt + dv) {
             v1 = v0 - dv;
-            ds = (uint32_t)(((uint64_t)(v0 + v1) * sg->g_q24) >> 24);
+            /* (rounded to nearest, here and below: rounding down would
+             * bias every segment's acceleration up, rounding up would let a
+             * long deceleration drift above its braking line) */
+            ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
         } else {
             v1 = vt;
             uint64_t d = (v02 - sq64(vt)) / (two_a ? two_a : 1u);
             ds = d > L - s0 ? L - s0 : (uint32_t)d;
+            full = false;
         }
     } else {
         /* below the line: accelerate towards the nominal, or cruise; a
@@ -303,16 +374,17 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         v1 = v0 + dv < sg->vn_q4 ? v0 + dv : sg->vn_q4;
         if (v1 == 0)
             v1 = dv; /* at rest with a zero nominal: cannot happen, but move */
-        ds = (uint32_t)(((uint64_t)(v0 + v1) * sg->g_q24) >> 24);
+        ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
         if (ds == 0)
             ds = 1;
         uint32_t se = s0 + ds < L ? s0 + ds : L;
-        if (sq64(v1) > ve2 + two_a * (L - se)) {
+        v12 = sq64(v1);
+        if (v12 + (uint64_t)two_a * (se - s0) > line0) {
             /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
              * line: accelerate (or cruise) until there */
             uint64_t d;
             if (v1 > v0)
-                d = (line0 - v02) / (2u * two_a);               /* the two lines meet */
+                d = (line0 - v02) / (2u * (uint64_t)two_a);     /* the two lines meet */
             else
                 d = (line0 - v02) / (two_a ? two_a : 1u);       /* cruise meets the line */
             if (d > L - s0)
@@ -320,9 +392,11 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
             ds = (uint32_t)d;
             if (ds == 0)
                 ds = 1;
-            v1 = v1 > v0 ? pk_isqrt64(v02 + two_a * ds) : v0;
+            v1 = v1 > v0 ? pk_isqrt64(v02 + (uint64_t)two_a * ds) : v0;
             if (v1 > sg->vn_q4)
                 v1 = sg->vn_q4;
+            v12 = 0;
+            full = false;
         }
     }
     if (s0 + ds >= L) {
@@ -330,36 +404,56 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
          * the constant acceleration reaches there */
         ds = L - s0;
         uint64_t e2 = v02;
+        const uint64_t ad = (uint64_t)two_a * ds;
         if (v1 > v0)
-            e2 += two_a * ds;
+            e2 += ad;
         else if (v1 < v0)
-            e2 = e2 > two_a * ds ? e2 - two_a * ds : 0;
+            e2 = e2 > ad ? e2 - ad : 0;
         uint32_t vl = pk_isqrt64(e2);
         if (v1 > v0 && vl > v1)
             vl = v1;
         if (v1 < v0 && vl < v1)
             vl = v1;
         v1 = vl;
+        v12 = 0;
+        full = false;
     }
     /* The segment's duration from its length (not the nominal seg_ticks: ds
      * is rounded down, and the time must be the time of the distance, or
      * the carry would put the rounding into the interval across the next
-     * boundary). Every ds here is at most one segment's travel, < 2^20 µm
-     * Q8, so 2 ds tick_q12 < 2^57. */
+     * boundary). */
     const uint32_t vsum = (v0 + v1) ? v0 + v1 : 1u;
-    const uint64_t seg_q16 = time_q16(sg, 2u * ds, vsum);
-    uint32_t s1 = s0 + ds;
-    /* the events in (s0, s1] at the segment's constant speed */
-    uint32_t e0 = sg->e, e1 = ev_upto(b, s1);
-    uint32_t n = e1 > e0 ? e1 - e0 : 0;
+    clock_set(sg, vsum);
+    const uint64_t seg_q16 = clock_time(sg, ds);
+    const uint32_t s1 = s0 + ds;
+    /* the events in (s0, s1], stepped from the last one prepared (exact:
+     * event k at q k + floor(r k / M) with L = q M + r; event M is at L, and
+     * the one after it beyond any s1 <= L, since q >= 1: a step is longer
+     * than 1/256 µm) */
+    uint32_t pos = sg->ev_next, prem = sg->ev_rem, n = 0;
+    const uint32_t M = b->events, p_first = pos, q_ev = sg->ev_q, r_ev = sg->ev_r;
+    uint32_t p_last = pos;
+    while (pos <= s1) {
+        p_last = pos;
+        n++;
+        pos += q_ev;
+        prem += r_ev;
+        if (prem >= M) {
+            prem -= M;
+            pos++;
+        }
+    }
+    const uint32_t e = sg->e + n;
     uint32_t vrep = (uint32_t)(((uint64_t)v1 + 8u) >> 4);
+    uint64_t carry = sg->carry_q16 + seg_q16;
     if (n > 0) {
         /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
          * halves around the mean) */
-        const uint32_t dv_abs = v0 > v1 ? v0 - v1 : v1 - v0;
-        const uint32_t r_q15 = div64_32((uint64_t)dv_abs << 16, vsum);
-        uint64_t t_first = at_time(sg, ev_s(b, e0 + 1u) - s0, vsum, seg_q16, r_q15, v1 > v0);
-        uint64_t t_last = at_time(sg, ev_s(b, e1) - s0, vsum, seg_q16, r_q15, v1 > v0);
+        const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
+        const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
+        const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
+        uint64_t t_first = at_time(clock_time(sg, p_first - s0), T, invT, r_q15, v1 > v0);
+        uint64_t t_last = at_time(clock_time(sg, p_last - s0), T, invT, r_q15, v1 > v0);
         if (t_last > seg_q16)
             t_last = seg_q16;
         if (t_first > t_last)
@@ -370,36 +464,47 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
          * is about mean (v0 - v1) / vseg (at most the mean either way, so
          * that every interval stays positive); the segment holds T / mean
          * intervals (a fraction: not n, which counts whole events), so
-         * A = change mean / T per event. c1 is rounded so that the ramp never sums to more than the
-         * span; what is left goes to the carry, so time stays exact. */
+         * A = change mean / T per event. c1 is rounded so that the ramp
+         * never sums to more than the span; what is left goes to the carry,
+         * so time stays exact. (span < 2^31: one segment, Q16.) */
         int32_t c1 = 0, A = 0;
-        uint64_t rem = 0;
+        uint32_t rem = 0;
         if (n > 1) {
-            uint64_t span = t_last - t_first;
-            uint32_t mean = div64_32(span, n - 1u);
+            uint32_t span = (uint32_t)(t_last - t_first);
+            uint32_t mean = span / (n - 1u);
             if (n > 2 && v0 != v1) {
-                uint32_t ch = (uint32_t)(((uint64_t)mean * r_q15) >> 15);
+                /* ch = mean r (Q16), per = mean / T (Q16), a = ch per: in
+                 * 16x16 products (mean < 2^31, r_q15 <= 2^16 - 1, per <= 2^16) */
+                const uint32_t r16 = r_q15 > 0xFFFFu ? 0xFFFFu : r_q15;
+                uint32_t ch = ((mean >> 16) * r16 << 1)
+                              + ((uint32_t)(uint16_t)mean * (uint16_t)r16 >> 15);
                 if (ch > mean)
                     ch = mean;
-                int32_t a = (int32_t)div64_32((uint64_t)ch * mean, (uint32_t)seg_q16 | 1u);
+                uint32_t per = ((mean >> 16) * invT) >> 14;
+                if (per > 0x10000u)
+                    per = 0x10000u;
+                int32_t a = (int32_t)((ch >> 16) * per + (((ch & 0xFFFFu) * per) >> 16));
                 A = v1 > v0 ? -a : a;
             }
-            /* c1 = mean - ceil(A n / 2) */
-            int64_t an = (int64_t)A * (int64_t)n;
-            int64_t q = an >= 0 ? (an + 1) / 2 : -((-an) / 2);
-            c1 = (int32_t)((int64_t)mean - q);
-            int64_t sum = (int64_t)(n - 1u) * c1 + (int64_t)A * (int64_t)((n * (n - 1u)) / 2u);
-            rem = span - (uint64_t)sum;
+            /* c1 = mean - ceil(A n / 2); the ramp's sum is within n of span
+             * (< 2^31), so it is computed modulo 2^32 */
+            int32_t an = A * (int32_t)n;
+            int32_t q = an >= 0 ? (an + 1) / 2 : -((-an) / 2);
+            c1 = (int32_t)mean - q;
+            uint32_t sum = (n - 1u) * (uint32_t)c1 + (uint32_t)A * ((n * (n - 1u)) / 2u);
+            rem = span - sum;
         }
         if (!emit_events(sg, n, sg->carry_q16 + t_first, c1, A, vrep))
             return false;
-        sg->carry_q16 = seg_q16 - t_last + rem;
-    } else {
-        sg->carry_q16 += seg_q16;
+        carry = seg_q16 - t_last + rem;
     }
+    sg->carry_q16 = carry;
+    sg->ev_next = pos;
+    sg->ev_rem = prem;
     sg->v_q4 = v1;
-    sg->v2 = sq64(v1) >> 4;   /* Q4 speed^2 for the planner */
-    sg->e = e1;
+    sg->v_sq = v12 ? v12 : sq64(v1);
+    sg->v2 = sg->v_sq >> 4;   /* Q4 speed^2 for the planner */
+    sg->e = e;
     sg->s_q8 = s1;
     if (sg->hold && v1 == 0)
         sg->held = true;
@@ -439,6 +544,7 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
             pk_mq_pop(q);
             max_blocks--;
             sg->v2 = 0;
+            sg->v_sq = 0;
             sg->v_q4 = 0;
             sg->carry_q16 = 0;
             added = true;
@@ -479,6 +585,7 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
         sg->e = 0;
         sg->s_q8 = 0;
         sg->v2 = 0;
+        sg->v_sq = 0;
         sg->v_q4 = 0;
         sg->carry_q16 = 0;
         return 1;
@@ -500,6 +607,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
     sg->e = 0;
     sg->s_q8 = 0;
     sg->v2 = 0;
+    sg->v_sq = 0;
     sg->v_q4 = 0;
     sg->carry_q16 = 0;
     sg->phase = PK_SGP_GAP;
@@ -516,6 +624,86 @@ void pk_sg_flush(struct pk_stepgen *sg)
 static uint64_t isr_alarm(struct pk_stepgen *sg, uint8_t why)
 {
     sg->alarm = why;
+    sg->v_um_s = 0u;
+    sg->busy = false;
+    return 0;
+}
+
+/* ------------------------------------------------------------ inputs */
+
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t lv, int level)
+{
+    uint32_t old = sg->in_now;
+    sg->in_now = (uint16_t)lv;
+    sg->in_rise = (uint16_t)(sg->in_rise | (lv & ~old));
+    uint8_t w = sg->watch;
+    if (w == 0u)
+        return;
+    if ((w & PK_SGW_LIMITS) != 0u && ((level ? lv : lv & ~old) & PK_IN_LIMITS) != 0u)
+        sg->fired |= PK_SGW_LIMITS;
+    if ((w & PK_SGW_PROBE) != 0u && (sg->fired & PK_SGW_PROBE) == 0u
+        && ((lv >> PK_IN_PROBE) & 1u) == sg->probe_level) {
+        for (unsigned i = 0; i < PK_AXES; i++)
+            sg->probe_pos[i] = sg->pos[i];
+        sg->fired |= PK_SGW_PROBE;
+    }
+    if ((w & PK_SGW_HOME) != 0u) {
+        sg->lock |= (uint8_t)(lv & sg->home_axes);
+        if ((sg->lock & sg->home_axes) == sg->home_axes)
+            sg->fired |= PK_SGW_HOME;
+    }
+}
+
+/* A watch is armed and the inputs must be read (a board without edge
+ * reports, or a line block's start: a switch already active when a move
+ * starts): read them into the watches. 0, or -1 if the read failed (alarm
+ * latched). */
+static int watch_read(struct pk_stepgen *sg, const struct pk_hal *hal)
+{
+    uint32_t lv;
+    if (pk_hal_input_read(hal, &lv) != 0) {
+        sg->alarm = PK_ALARM_INPUT_READ;
+        return -1;
+    }
+    pk_sg_inputs(sg, lv ^ sg->in_flip, 1);
+    return 0;
+}
+
+/* The watches that stop the output at once have fired. */
+#define WATCH_STOP(sg) (((sg)->fired & (PK_SGW_LIMITS | PK_SGW_HOME)) != 0u)
+
+/* The watch paths stay out of line: with none armed the step path pays only
+ * its byte test, not the registers their code would take; armed with nothing
+ * to do (hard limits on a board with edge reports, no switch closed), a few
+ * more byte tests and no call. */
+#if defined(__GNUC__) || defined(__clang__)
+#define SG_COLD __attribute__((noinline, cold))
+#else
+#define SG_COLD
+#endif
+
+/* A step event with a watch armed: the axes still to step (homing's locked
+ * ones dropped), or -1: stop before this event. */
+static SG_COLD int32_t watch_event(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t mask)
+{
+    if ((sg->poll_in && watch_read(sg, hal) != 0) || WATCH_STOP(sg))
+        return -1;
+    return (int32_t)(mask & ~(uint32_t)sg->lock);
+}
+
+/* A chunk about to run with a watch armed (kind: its enum pk_sg_chunk_kind):
+ * 1 = stop before it. */
+static SG_COLD int watch_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t kind)
+{
+    return ((sg->poll_in || kind == PK_SGC_BLOCK) && watch_read(sg, hal) != 0) || WATCH_STOP(sg);
+}
+
+/* Stop at once for a watch: nothing more is emitted; a hard limit latches
+ * its alarm, a completed homing move only stops (MAIN drops the rest). */
+static SG_COLD uint64_t isr_watch_stop(struct pk_stepgen *sg)
+{
+    if (sg->alarm == 0u && (sg->fired & PK_SGW_LIMITS) != 0u)
+        sg->alarm = PK_ALARM_HARD_LIMIT;
     sg->v_um_s = 0u;
     sg->busy = false;
     return 0;
@@ -539,6 +727,13 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
                 sg->acc[i] -= (int32_t)sg->period;
                 mask |= 1u << i;
             }
+        }
+        /* armed, and something to do: inputs to read, a watch fired, an axis locked */
+        if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
+            int32_t w = watch_event(sg, hal, mask);
+            if (w < 0)
+                return isr_watch_stop(sg);
+            mask = (uint32_t)w;
         }
         if (pk_hal_step_write(hal, all, mask) != 0)
             return isr_alarm(sg, PK_ALARM_STEP_WRITE);
@@ -572,6 +767,8 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
             return 0;
         }
         const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind))
+            return isr_watch_stop(sg);
         switch (c->kind) {
         case PK_SGC_BLOCK:
             if (c->spindle != sg->spindle_cur) {
@@ -631,9 +828,18 @@ uint64_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint64_t now
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
     }
+    uint32_t ival = (uint32_t)sg->I;
     sg->next_q16 += (uint64_t)(int64_t)sg->I;
     sg->I += sg->A;
     sg->left--;
+    /* Late by more than the interval itself (the timer callback was held
+     * up, or the main loop published the chunk after its time): the
+     * schedule moves to now instead of catching up, which would fire the
+     * missed steps back to back at whatever rate the callback manages. */
+    if (sg->next_q16 + ival < (now << 16)) {
+        sg->next_q16 = now << 16;
+        sg->late++;
+    }
     uint64_t at = (sg->next_q16 + 0x8000u) >> 16;
     if (at < earliest)
         at = earliest;

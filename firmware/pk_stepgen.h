@@ -25,6 +25,17 @@
  * at least dir_setup_ticks before the next step edge. A failing HAL write
  * latches an alarm; nothing more is written to the step lines and the
  * position counts only the pulses the HAL accepted.
+ *
+ * Input watches (pk_motion.h: hard limits, probing, homing): while one is
+ * armed (watch != 0), the callback applies the inputs at every step event,
+ * before the step's edge: hard limits stop the output there with an alarm,
+ * homing drops the steps of the axes whose switch has tripped (axis lock)
+ * and stops once all have, probing records the position at the contact.
+ * The levels come from the backend's edge reports (pk_sg_inputs, from the
+ * core's edge callback) or, for a backend without them, from an input read
+ * at each step event; every line block's start also reads them, so a switch
+ * already active when a move starts trips before its first step. With no
+ * watch armed the step path pays one byte test per step event and per chunk.
  */
 #ifndef PLOTKIN_PK_STEPGEN_H
 #define PLOTKIN_PK_STEPGEN_H
@@ -33,6 +44,18 @@
 #include <stdint.h>
 #include "hal.h"
 #include "pk_mq.h"
+
+/** Segments of 2 ms may be doubled this many times (to 8 ms) while the speed
+ * changes slowly enough (PK_SG_RAMP_SHIFT) or not at all: fewer segments to
+ * prepare per second at speed. */
+#ifndef PK_SG_SEG_LEVELS
+#define PK_SG_SEG_LEVELS 2u
+#endif
+/** A segment is doubled only while its speed change is at most 2^-this of
+ * the speed (the interval ramp's model error is second order in it). */
+#ifndef PK_SG_RAMP_SHIFT
+#define PK_SG_RAMP_SHIFT 4u
+#endif
 
 /** Chunks buffered ahead of the timer (power of two). */
 #ifndef PK_SG_CHUNKS
@@ -83,6 +106,14 @@ struct pk_sg_chunk {
     uint32_t v_um_s;           /**< STEPS/SLOW: speed at the chunk's end (reports) */
 };
 
+/** Input watches (struct pk_stepgen.watch / .fired bits). */
+enum pk_sg_watch {
+    PK_SGW_LIMITS = 1, /**< hard limits: a limit input active -> stop at once, alarm */
+    PK_SGW_PROBE = 2,  /**< probing: the probe at probe_level -> record the position */
+    PK_SGW_HOME = 4    /**< homing: an axis of home_axes whose limit is active steps no
+                            more; once all of them are -> stop at once, no alarm */
+};
+
 /** Timer-side phase (private). */
 enum pk_sg_phase { PK_SGP_GAP = 0, PK_SGP_STEP_DUE = 1, PK_SGP_PULSE = 2 };
 
@@ -102,6 +133,8 @@ struct pk_stepgen {
     uint32_t s_q8;             /**< prepared distance into the tail block, µm Q8 */
     uint32_t v_q4;             /**< speed there, µm/s Q4 */
     pk_v2_q4_t v2;             /**< the same squared, Q4 */
+    uint64_t v_sq;             /**< v_q4 squared ((µm/s)^2 Q8) */
+    uint64_t ve_sq;            /**< ve_q4 squared */
     pk_v2_q4_t v2_blk;         /**< speed^2 at the tail block's start (what the planner sees) */
     bool off_plan;             /**< a hold came during the tail block: the planner sees
                                     the real position instead */
@@ -110,6 +143,10 @@ struct pk_stepgen {
     uint32_t g_q24;            /**< a segment's distance per unit of speed sum (µm Q8
                                     per µm/s Q4, Q24) */
     uint32_t dv_q4;            /**< speed change per segment at the block's accel, Q4 */
+    uint32_t invT_q30;         /**< 2^30 / seg_ticks */
+    uint8_t lvl_max;           /**< the block's segments may be seg_ticks << 0..this */
+    uint32_t ev_q, ev_r;       /**< the block's event spacing L / M: quotient, remainder */
+    uint32_t ev_next, ev_rem;  /**< position of the next event (µm Q8) and its remainder */
     uint32_t vn_q4, ve_q4;     /**< the block's nominal and exit speed, Q4 ... */
     pk_v2_q4_t c_v2_nom, c_v2_exit; /**< ... cached for these planned squares */
 
@@ -138,12 +175,46 @@ struct pk_stepgen {
                                     time, then stops (finding M2) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
     uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
-    uint64_t tick_q12;         /**< tick_hz * 2^12 */
+    uint64_t tick_num;         /**< tick_hz * 2^13 (segment clocks) */
+    uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
+    uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
+    uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
+    uint32_t kdv_q24;          /**< seg_max * 16 / tick_hz, Q24: dv_q4 = accel * this */
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    volatile uint16_t late;    /**< events that found their time passed by more than their
+                                    interval and moved the schedule (ISR counts; a
+                                    diagnostic: 0 whenever the main loop keeps up) */
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
+
+    /* ---- input watches (MAIN arms and clears them under irq_save; the ISR
+     *      and the edge callback read them and set fired / lock) ---- */
+    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed */
+    volatile uint8_t fired;    /**< watch bits that have fired since armed */
+    volatile uint8_t lock;     /**< HOME: axes whose switch has tripped (they step no more) */
+    uint8_t home_axes;         /**< HOME: the axes homed */
+    uint8_t probe_level;       /**< PROBE: logical probe level that fires (1 touch, 0 leave) */
+    uint8_t poll_in;           /**< 1: the board reports no edges: read the inputs at
+                                    every step event while a watch is armed */
+    uint16_t in_flip;          /**< PK_IN_* bits flipped on top of the board's polarity
+                                    (Grbl $5 / $6) */
+    volatile uint16_t in_now;  /**< logical input levels last seen */
+    volatile uint16_t in_rise; /**< inputs that became active since MAIN last took them */
+    pk_steps_t probe_pos[PK_AXES]; /**< PROBE: position when it fired */
 };
+
+/**
+ * New logical input levels (PK_IN_* bits, polarity applied): from the core's
+ * edge callback, or read by the ISR or by MAIN (under irq_save). Updates the
+ * levels seen, latches rising inputs, and applies the armed watches: HOME
+ * locks the axes whose switch is active, PROBE fires at probe_level (position
+ * recorded), LIMITS fires on a limit input that rises, or with level = 1 on
+ * any limit input that is active (the step path's checks). Calling context:
+ * ISR, edge context or MAIN with the timer callback held off; never two at a
+ * time (hal.h).
+ */
+void pk_sg_inputs(struct pk_stepgen *sg, uint32_t logical, int level);
 
 /** Initialise (empty ring, position 0, dir lines assumed logical 0). */
 void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,

@@ -15,6 +15,13 @@
  * timer callback (must not block, must be bounded); [MAIN] only from the main
  * loop. Optional members may be NULL; the inline wrappers then return
  * PK_HAL_ENOSYS.
+ *
+ * Inputs (limit switches, probe, door and the three buttons) are read the
+ * same way: the backend reports RAW levels, one bit per enum pk_hal_input,
+ * and pk_hal_input_read() / pk_hal_input_logical() turn them into logical
+ * levels (1 = switch pressed, probe touching, door open, button pressed)
+ * with struct pk_hal.input_invert, masked to the lines the board has
+ * (struct pk_hal.inputs). See "What an input backend must do" below.
  */
 #ifndef PLOTKIN_HAL_H
 #define PLOTKIN_HAL_H
@@ -22,7 +29,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PK_HAL_VERSION 1u
+#define PK_HAL_VERSION 2u /**< 2: input_read, input_watch, inputs, input_invert */
 #define PK_HAL_MAX_AXES 4
 
 /** HAL status codes: 0 on success, negative errno-style values on failure. */
@@ -33,6 +40,40 @@ enum pk_hal_status {
     PK_HAL_EINVAL = -22,  /**< bad argument */
     PK_HAL_ENOSYS = -38   /**< member not provided by this backend */
 };
+
+/**
+ * Input lines: bit numbers of the input masks (struct pk_hal.inputs,
+ * input_invert, the levels of input_read and of the edge callback).
+ * Grbl's wiring: one limit switch per axis (at either end of its travel, or
+ * two in series), a probe, a safety door and the feed-hold, cycle-start and
+ * reset buttons.
+ */
+enum pk_hal_input {
+    PK_IN_LIMIT_X = 0, /**< limit switch of axis 0; axis i uses bit i */
+    PK_IN_LIMIT_Y = 1,
+    PK_IN_LIMIT_Z = 2,
+    PK_IN_LIMIT_A = 3,
+    PK_IN_PROBE = 4,   /**< probe (touch plate, tool setter) */
+    PK_IN_DOOR = 5,    /**< safety door: active = open */
+    PK_IN_HOLD = 6,    /**< feed-hold button (Grbl '!') */
+    PK_IN_RESUME = 7,  /**< cycle-start / resume button (Grbl '~') */
+    PK_IN_RESET = 8,   /**< reset / abort button (Grbl ctrl-X) */
+    PK_IN_COUNT = 9
+};
+_Static_assert(PK_IN_LIMIT_A == PK_HAL_MAX_AXES - 1, "one limit input per HAL axis");
+/** Mask of the limit inputs of axes 0..PK_HAL_MAX_AXES-1. */
+#define PK_IN_LIMITS ((1u << PK_HAL_MAX_AXES) - 1u)
+/** Mask of every input bit. */
+#define PK_IN_ALL ((1u << PK_IN_COUNT) - 1u)
+
+/**
+ * Input edge callback, registered by the core with input_watch. raw_levels:
+ * the raw levels of every input line after the change (bits as in enum
+ * pk_hal_input); tick: when the change happened, as well as the backend knows
+ * (clock_ticks units). Runs in the backend's edge context (see below); must
+ * not block; bounded.
+ */
+typedef void (*pk_hal_input_cb)(void *arg, uint32_t raw_levels, uint64_t tick);
 
 /**
  * Timer callback: called by the backend at (or as soon as possible after) the
@@ -61,6 +102,22 @@ struct pk_hal_ops {
      *  writes only). NULL: the board has no such output. */
     int (*spindle_write)(void *ctx, uint16_t value_q16);
 
+    /** [ISR][MAIN] Optional: read the raw levels of every input line into
+     *  *raw_levels (bit per enum pk_hal_input; lines the board does not have
+     *  read 0). Bounded: port register reads on a microcontroller, one ioctl
+     *  per line on Linux. PK_HAL_OK or PK_HAL_EIO (*raw_levels unspecified).
+     *  NULL: the board has no inputs (struct pk_hal.inputs must be 0). */
+    int (*input_read)(void *ctx, uint32_t *raw_levels);
+    /** [MAIN] Optional: report input edges. From the return on, the backend
+     *  calls cb(arg, raw_levels, tick) from its edge context after every
+     *  change of one or more input lines; cb NULL stops the reports (none
+     *  runs after the call returns). One callback at a time: a new one
+     *  replaces the old. NULL member: the board cannot report edges; the
+     *  core then reads the inputs with input_read at every step while it
+     *  watches them (limits, probe, homing), and once per main-loop pass for
+     *  the buttons. PK_HAL_OK, or PK_HAL_EIO if the edge source failed. */
+    int (*input_watch)(void *ctx, pk_hal_input_cb cb, void *arg);
+
     /** [MAIN] Start the step timer: cb(arg, now) is first called at tick
      *  first_tick; then at whatever tick each call returns. */
     int (*timer_start)(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick);
@@ -83,6 +140,16 @@ struct pk_hal_ops {
      *  that made a member return PK_HAL_EIO), "" if none. Valid until the
      *  next call on the instance. For alarms and `[MSG:...]` reports. */
     const char *(*error_text)(void *ctx);
+
+    /** [MAIN] Optional non-volatile store (EEPROM on a board, a file on a
+     *  host) for settings and offsets that must survive a restart.
+     *  nvm_size: bytes available. nvm_read/nvm_write: len bytes at offset
+     *  (offset + len <= nvm_size), blocking until done; PK_HAL_OK, or
+     *  PK_HAL_EINVAL (out of range) / PK_HAL_EIO. Written only while the
+     *  machine is idle (the Grbl engine syncs first, as Grbl does). */
+    uint32_t (*nvm_size)(void *ctx);
+    int (*nvm_read)(void *ctx, uint32_t offset, uint8_t *buf, size_t len);
+    int (*nvm_write)(void *ctx, uint32_t offset, const uint8_t *buf, size_t len);
 };
 
 /** One HAL instance: ops + context + the board's static facts. */
@@ -94,7 +161,41 @@ struct pk_hal {
     uint32_t dir_invert;       /**< axis bits whose direction line is inverted */
     uint32_t enable_invert;    /**< axis bits whose enable line is active-low */
     uint32_t tool_invert;      /**< 1 if the tool output is active-low */
+    uint32_t inputs;           /**< PK_IN_* bits of the input lines the board has
+                                    (0: none; then input_read may be NULL) */
+    uint32_t input_invert;     /**< PK_IN_* bits whose line is active-low (a switch
+                                    to ground on a pull-up, a normally-closed switch) */
 };
+
+/*
+ * What an input backend must do (libgpiod: hal/gpiod/; AVR: pin-change
+ * interrupts, hal/avr/):
+ *  - Fill struct pk_hal.inputs with the bits of the lines it has and
+ *    input_invert with their polarity (pull-ups and switches to ground:
+ *    active-low). Never report a line it does not have.
+ *  - input_read returns the raw levels of all its input lines at once, and
+ *    is safe to call from the step timer callback (a few register reads; it
+ *    may not block or wait for a debounce).
+ *  - If it can, input_watch: enable the edge sources (AVR: PCMSKn bits of
+ *    the input pins and PCICR; Linux: both-edge events) and, on every change,
+ *    call the callback with the levels read AFTER the change (read the port
+ *    in the pin-change ISR; several lines changing at once give one call; a
+ *    change that comes back before the ISR runs may give a call with
+ *    unchanged levels, which is harmless).
+ *  - Edge context vs the step timer: the callback and the step timer
+ *    callback never run at the same time (two interrupts of one priority
+ *    level that do not nest, as on an AVR where the ISRs run with interrupts
+ *    off; or one thread), and irq_save() also holds the callback off. The
+ *    core relies on this: the callback reads the step position the timer
+ *    callback writes.
+ *  - Latency: the sooner the callback runs after the edge, the sooner the
+ *    core acts on it; its effect on the step output is at the next step
+ *    event. A backend without edges loses nothing but costs an input_read
+ *    per step while the core watches.
+ *  - No debouncing in the backend: the core acts on the first edge (a hard
+ *    limit, a probe contact); Grbl's $26 is a delay the homing cycle waits
+ *    after each of its moves, not a filter.
+ */
 
 /** Validate an instance: version match and the mandatory members present. */
 static inline int pk_hal_check(const struct pk_hal *h)
@@ -102,6 +203,8 @@ static inline int pk_hal_check(const struct pk_hal *h)
     if (h == NULL || h->ops == NULL || h->ops->version != PK_HAL_VERSION || h->tick_hz == 0u)
         return PK_HAL_EINVAL;
     if (h->ops->step_write == NULL || h->ops->dir_write == NULL || h->ops->clock_ticks == NULL)
+        return PK_HAL_EINVAL;
+    if ((h->inputs & ~PK_IN_ALL) != 0u || (h->inputs != 0u && h->ops->input_read == NULL))
         return PK_HAL_EINVAL;
     return PK_HAL_OK;
 }
@@ -134,9 +237,42 @@ static inline int pk_hal_spindle_write(const struct pk_hal *h, uint16_t value_q1
         return PK_HAL_ENOSYS;
     return h->ops->spindle_write(h->ctx, value_q16);
 }
+/** Logical levels (1 = active) of raw input levels: polarity applied, masked
+ *  to the lines the board has. */
+static inline uint32_t pk_hal_input_logical(const struct pk_hal *h, uint32_t raw)
+{
+    return (raw ^ h->input_invert) & h->inputs;
+}
+/** Read every input line as logical levels. PK_HAL_ENOSYS if the board has
+ *  none; *logical is 0 on any failure. [ISR][MAIN] */
+static inline int pk_hal_input_read(const struct pk_hal *h, uint32_t *logical)
+{
+    uint32_t raw = 0;
+    *logical = 0;
+    if (h->ops->input_read == NULL || h->inputs == 0u)
+        return PK_HAL_ENOSYS;
+    int r = h->ops->input_read(h->ctx, &raw);
+    if (r != 0)
+        return r;
+    *logical = pk_hal_input_logical(h, raw);
+    return PK_HAL_OK;
+}
+/** Register (cb != NULL) or remove the edge callback; PK_HAL_ENOSYS if the
+ *  board cannot report edges. [MAIN] */
+static inline int pk_hal_input_watch(const struct pk_hal *h, pk_hal_input_cb cb, void *arg)
+{
+    if (h->ops->input_watch == NULL || h->inputs == 0u)
+        return PK_HAL_ENOSYS;
+    return h->ops->input_watch(h->ctx, cb, arg);
+}
 static inline uint32_t pk_hal_irq_save(const struct pk_hal *h)
 {
     return h->ops->irq_save ? h->ops->irq_save(h->ctx) : 0u;
+}
+/** Bytes of non-volatile store the backend has (0: none). */
+static inline uint32_t pk_hal_nvm_size(const struct pk_hal *h)
+{
+    return h->ops->nvm_size && h->ops->nvm_read && h->ops->nvm_write ? h->ops->nvm_size(h->ctx) : 0u;
 }
 /** The backend's last failure as text; "" if none or not provided. */
 static inline const char *pk_hal_error_text(const struct pk_hal *h)

@@ -16,7 +16,9 @@ int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
                                  &app->uart };
     struct pk_grbl_machine_ops ops;
     pk_grbl_motion_ops(&ops);
-    return pk_grbl_init(&app->g, &io, &ops, &app->gm, NULL) == 0 ? 0 : -1;
+    struct pk_grbl_nvm nvm; /* the HAL's EEPROM/flash store, if it has one */
+    pk_grbl_motion_nvm(hal, &nvm);
+    return pk_grbl_init(&app->g, &io, &ops, &app->gm, NULL, &nvm) == 0 ? 0 : -1;
 }
 
 void pk_app_poll(struct pk_app *app)

@@ -155,7 +155,7 @@ static void emit(struct pk_avrchip *c, uint64_t t, enum pk_sig_kind kind, unsign
 
 /* The servo pin: a rising edge starts a pulse, the falling edge measures it.
  * The pen level changes at the rising edge of the first pulse of the other
- * half of the range. */
+ * half of the range (beyond 4 us of its middle). */
 static void servo_edge(struct pk_avrchip *c, uint64_t t, int level)
 {
     if (level) {
@@ -186,7 +186,9 @@ static void servo_edge(struct pk_avrchip *c, uint64_t t, int level)
     if (w > c->servo_width_max)
         c->servo_width_max = w;
     uint64_t mid = (uint64_t)(c->b->servo_min_us + c->b->servo_max_us) * (c->b->f_cpu / 1000000u) / 2u;
-    int pen = w > mid;
+    /* a pulse within tol of the middle keeps the level: a value at half range
+     * would otherwise flip it with every cycle of interrupt latency */
+    int pen = c->pen < 0 ? w > mid : w > mid + tol ? 1 : w + tol < mid ? 0 : c->pen;
     if (pen != c->pen) {
         /* the first pulse only tells where the pen starts */
         emit(c, c->servo_rise, PK_SIG_PEN, 0, pen, c->pen < 0);
@@ -351,7 +353,9 @@ static void step(struct pk_avrchip *c)
         c->sp_min = sp;
     uint8_t depth = avr->interrupts.running_ptr;
     uint8_t cur = c->n_frames ? c->frames[c->n_frames - 1].vec : 0xFFu;
-    if (depth0 > 0 && c->hist != NULL && cur == c->b->step_vector && pc0 / 2u < c->hist_words)
+    if (c->hist != NULL && pc0 / 2u < c->hist_words
+        && (c->hist_main ? depth0 == 0 && depth == 0
+                         : depth0 > 0 && cur == c->b->step_vector))
         c->hist[pc0 / 2u] += avr->cycle - cyc0;
     if (depth > depth0 && c->n_frames < sizeof c->frames / sizeof c->frames[0]) {
         /* entered: the vector's first instruction runs next */

@@ -137,7 +137,9 @@ struct pk_avrchip {
     unsigned n_fn;
     struct pk_avrchip_watch watch[PK_AVRCHIP_MAX_WATCH];
     unsigned n_watch;
-    uint64_t *hist;                   /**< if not NULL: cycles per flash word inside the step ISR */
+    uint64_t *hist;                   /**< if not NULL: cycles per flash word inside the step ISR
+                                           (hist_main: outside every interrupt instead) */
+    int hist_main;
     size_t hist_words;
     /* private */
     struct pk_avrchip_tap { struct pk_avrchip *c; uint8_t kind, axis; } taps[3 * PK_AVRCHIP_MAX_AXES + 1];

@@ -45,6 +45,7 @@ static const char avrsim_usage[] =
     "  --elf FILE       the image's ELF (symbols): also measure the main-loop functions;\n"
     "                   --profile adds a flat cycle profile of the step interrupt;\n"
     "                   --hist FILE writes its cycles per flash address (`ADDR CYCLES`)\n"
+    "                   (--hist-main FILE: the main loop's cycles instead)\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
     "  --peek N:ADDR:B  report the B-byte little-endian value at ADDR at the end\n"
     "  --link PATH      make a pseudo-terminal, symlink PATH to it and connect it to the\n"
@@ -797,6 +798,7 @@ int cmd_avrsim(int argc, char **argv)
 {
     const char *hex = NULL, *board = "uno-cnc-shield", *run = NULL, *config = NULL, *trace = NULL;
     const char *link = NULL, *driver = "drv8825", *elf = NULL, *hist_out = NULL;
+    int hist_main = 0;
     int json = 0, profile = 0;
     double timeout = 600.0, speed = 1.0;
     struct at_event at[AT_MAX];
@@ -816,6 +818,8 @@ int cmd_avrsim(int argc, char **argv)
             profile = 1;
         } else if (v != NULL && !strcmp(a, "--hist")) {
             hist_out = v, i++, profile = 1;
+        } else if (v != NULL && !strcmp(a, "--hist-main")) {
+            hist_out = v, i++, profile = 1, hist_main = 1;
         } else if (v != NULL && !strcmp(a, "--board")) {
             board = v, i++;
         } else if (v != NULL && !strcmp(a, "--run")) {
@@ -928,6 +932,7 @@ int cmd_avrsim(int argc, char **argv)
         if (profile) {
             s.chip.hist_words = 131072;
             s.chip.hist = calloc(s.chip.hist_words, sizeof *s.chip.hist);
+            s.chip.hist_main = hist_main;
         }
     }
     int rc;

@@ -3,7 +3,7 @@
  * motion core) in the simulator in real time and expose it on a
  * pseudo-terminal, so any G-code sender can connect as if to a board.
  *
- *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N]
+ *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N] [--eeprom FILE]
  *
  * The simulated clock follows the wall clock times N (--speed). Each loop
  * iteration moves bytes between the pty and the UART shim (the "RX/TX
@@ -25,6 +25,14 @@
  * `ok` would hang a character-counting sender). The events are read at the
  * top of every loop iteration, before the line is read, and a client's open
  * is queued before anything it writes, so its first answer is never dropped.
+ * When the last client closes the pty, whatever it sent is still read and
+ * executed up to its last complete line, and its unfinished line is dropped
+ * (pk_grbl_drop_partial_line) before a byte of the next client is read: a
+ * half "G0 X1" is never glued to the next client's "0 Y5". (Grbl boards get
+ * the same from the reset a port open gives them.)
+ * --eeprom FILE keeps the settings, offsets and startup lines in FILE (the
+ * board's EEPROM: hal/posix/pk_nvm_file.h) across runs; without it they
+ * start from the defaults every time.
  * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
@@ -47,6 +55,7 @@
 #include "commands.h"
 #include "serve_sim.h"
 #include "sim_report.h"
+#include "posix/pk_nvm_file.h"
 #include "posix/pk_serial.h"
 
 #define TICK_HZ 1000000u
@@ -69,13 +78,14 @@ static uint64_t now_ns(void)
 
 static void usage(FILE *f)
 {
-    fputs("usage: plotkin serve [--link PATH] [--speed N] [--device PATH [--baud N]]\n"
+    fputs("usage: plotkin serve [--link PATH] [--speed N] [--device PATH [--baud N]] [--eeprom FILE]\n"
           "\n"
           "Run the simulated machine in real time and speak Grbl 1.1 on a pseudo-terminal.\n"
           "  --link PATH    also make PATH a symlink to the pty (stable name for senders)\n"
           "  --speed N      simulated clock runs N times faster than the wall clock (1..100000)\n"
           "  --device PATH  serve on a real serial device instead of a pty (raw mode)\n"
           "  --baud N       baud rate for --device (default 115200)\n"
+          "  --eeprom FILE  keep settings, offsets and startup lines in FILE across runs\n"
           "Stops on SIGINT/SIGTERM and prints a summary.\n",
           f);
 }
@@ -93,7 +103,7 @@ static const char *state_name(int st)
 
 int cmd_serve(int argc, char **argv)
 {
-    const char *link = NULL, *device = NULL;
+    const char *link = NULL, *device = NULL, *eeprom = NULL;
     long speed = 1, baud = 115200;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
@@ -103,6 +113,8 @@ int cmd_serve(int argc, char **argv)
             link = argv[++i];
         } else if (!strcmp(argv[i], "--device") && i + 1 < argc) {
             device = argv[++i];
+        } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc) {
+            eeprom = argv[++i];
         } else if ((!strcmp(argv[i], "--speed") || !strcmp(argv[i], "--baud")) && i + 1 < argc) {
             char *end;
             long v = strtol(argv[i + 1], &end, 10);
@@ -122,9 +134,20 @@ int cmd_serve(int argc, char **argv)
         }
     }
 
+    static struct pk_nvm_file nvf = { -1, 0 };
+    struct pk_grbl_nvm nvm, *nvmp = NULL;
+    if (eeprom != NULL) {
+        int e = pk_nvm_file_open(&nvf, eeprom, pk_grbl_nvm_bytes());
+        if (e != 0) {
+            fprintf(stderr, "plotkin serve: --eeprom %s: %s\n", eeprom, strerror(-e));
+            return 1;
+        }
+        nvm = (struct pk_grbl_nvm){ pk_nvm_file_read, pk_nvm_file_write, &nvf, nvf.size };
+        nvmp = &nvm;
+    }
     struct pk_serve_sim *sim = calloc(1, sizeof *sim);
     const struct pk_timing_limits lim = PK_TIMING_DRV8825;
-    if (sim == NULL || pk_serve_sim_start(sim, "plotkin-serve0", &lim) != 0) {
+    if (sim == NULL || pk_serve_sim_start_nvm(sim, "plotkin-serve0", &lim, nvmp) != 0) {
         fprintf(stderr, "plotkin serve: cannot initialise the machine%s%s\n", sim ? ": " : "",
                 sim ? sim->r.err : "");
         if (sim)
@@ -169,7 +192,7 @@ int cmd_serve(int argc, char **argv)
     if (!device && opens < 0)
         fprintf(stderr, "plotkin serve: inotify unavailable (%s): a reconnecting client may "
                         "see answers meant for the previous one\n", strerror(errno));
-    int io_error = 0, sim_error = 0;
+    int io_error = 0, sim_error = 0, draining = 0;
     while (!serve_stop) {
         if (opens >= 0) {
             char evbuf[16 * (sizeof(struct inotify_event) + 16)]
@@ -182,8 +205,12 @@ int cmd_serve(int argc, char **argv)
                         if (clients++ == 0)
                             connections++;
                     }
-                    if ((e->mask & IN_CLOSE) && clients > 0)
-                        clients--;
+                    if ((e->mask & IN_CLOSE) && clients > 0 && --clients == 0) {
+                        /* the last client left: read what it sent before it
+                         * closed, then drop its unfinished line */
+                        ser.rx_allow = (long)pk_serial_pending(&ser);
+                        draining = 1;
+                    }
                     q += sizeof *e + e->len;
                 }
             }
@@ -193,6 +220,11 @@ int cmd_serve(int argc, char **argv)
                 alone_since = now_ns();
             else if (now_ns() - alone_since >= 1000000000ull)
                 pk_serial_discard_unread(&ser); /* nobody has been there for 1 s */
+        }
+        if (draining && ser.rx_allow == 0 && pk_uart_rx_used(&sim->uart) == 0) {
+            pk_grbl_drop_partial_line(&sim->g);
+            ser.rx_allow = -1;
+            draining = 0;
         }
         uint64_t rx0 = ser.rx_bytes;
         if (pk_serial_pump(&ser, &sim->uart) != 0) {
@@ -260,5 +292,6 @@ int cmd_serve(int argc, char **argv)
     pk_serial_close(&ser);
     pk_serve_sim_free(sim);
     free(sim);
+    pk_nvm_file_close(&nvf);
     return io_error || sim_error ? 1 : 0;
 }

@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include "commands.h"
+#include "sim_inputs.h"
 #include "sim_report.h"
 #include "sim_run.h"
 
@@ -48,13 +49,15 @@ static const char sim_usage[] =
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
     "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
     "                   request), set:N (the Nth write) - to see how the firmware copes\n"
+    "%s"
     "\n"
     "Speeds are measured per axis from the decoded step times over any 16 and any 2\n"
     "consecutive steps, accelerations between windows of >= 16 steps and >= 20 ms,\n"
     "each with the least value the step quantisation allows (>=). The deviation is\n"
     "the distance from each decoded step position to the programmed path (lines,\n"
     "arcs and G5 curves evaluated exactly): its maximum, where, and 95th percentile.\n"
-    "Coordinates must lie within the travel: X, Y in [0, $130/$131], Z within $132.\n"
+    "Soft limits ($20=1, which needs $22=1) keep moves within [-$13x, 0] as Grbl after\n"
+    "homing; without them (the default) any target within +-2097 mm runs.\n"
     "\n"
     "Exit status: 0 ran cleanly; 1 alarm, G-code errors, timing violations or a\n"
     "setup failure; 2 bad usage.\n";
@@ -320,13 +323,14 @@ int cmd_sim(int argc, char **argv)
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
     int json = 0, exact = 0, laser = 0;
     double tol = -1.0, feed = -1.0, svg_tol = 0.01, pen_z = NAN;
-    int axes_opt = 0, use_fault = 0;
+    int axes_opt = 0, use_fault = 0, hard_limits = 0;
+    static struct pk_sim_inputs inputs;
     static struct pk_gpiod_mock fault;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int more = i + 1 < argc;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(sim_usage, stdout);
+            printf(sim_usage, pk_sim_inputs_usage);
             return 0;
         } else if (!strcmp(a, "--json")) {
             json = 1;
@@ -372,10 +376,19 @@ int cmd_sim(int argc, char **argv)
                 return 2;
             }
             use_fault = 1;
+        } else if ((!strcmp(a, "--input") || !strcmp(a, "--switch")) && more) {
+            char ierr[160];
+            if (pk_sim_inputs_add(&inputs, a, argv[++i], ierr, sizeof ierr) != 0) {
+                fprintf(stderr, "plotkin sim: %s\n", ierr);
+                return 2;
+            }
+        } else if (!strcmp(a, "--hard-limits")) {
+            hard_limits = 1;
         } else if (!strcmp(a, "--axes") && more) {
             axes_opt = atoi(argv[++i]);
         } else if (a[0] == '-' && a[1] != '\0') {
-            fprintf(stderr, "plotkin sim: unknown or incomplete option '%s'\n\n%s", a, sim_usage);
+            fprintf(stderr, "plotkin sim: unknown or incomplete option '%s'\n\n", a);
+            fprintf(stderr, sim_usage, pk_sim_inputs_usage);
             return 2;
         } else if (file == NULL) {
             file = a;
@@ -385,7 +398,7 @@ int cmd_sim(int argc, char **argv)
         }
     }
     if (file == NULL) {
-        fputs(sim_usage, stderr);
+        fprintf(stderr, sim_usage, pk_sim_inputs_usage);
         return 2;
     }
     struct pk_timing_limits lim;
@@ -471,6 +484,10 @@ int cmd_sim(int argc, char **argv)
     }
     if (use_fault)
         o.fault = &fault;
+    pk_sim_inputs_resolve(&inputs, cfg.tick_hz, cfg.steps_per_mm);
+    o.inputs = inputs.in;
+    o.n_inputs = inputs.n;
+    o.hard_limits = hard_limits;
     FILE *tf = NULL;
     if (trace != NULL) {
         tf = fopen(trace, "w");

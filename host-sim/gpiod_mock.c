@@ -33,12 +33,19 @@ int pk_gpiod_mock_register(struct pk_gpiod_mock *m)
     return 0;
 }
 
+static void line_free(struct gpiod_line *l)
+{
+    l->handle = 0;
+    l->consumer[0] = '\0';
+    l->is_input = 0;
+    l->events = 0;
+    l->evq_n = 0;
+}
+
 static void release_all(struct pk_gpiod_mock *m)
 {
-    for (unsigned int i = 0; i < PK_GPIOD_MOCK_LINES; i++) {
-        m->line[i].handle = 0;
-        m->line[i].consumer[0] = '\0';
-    }
+    for (unsigned int i = 0; i < PK_GPIOD_MOCK_LINES; i++)
+        line_free(&m->line[i]);
     m->requested = 0;
 }
 
@@ -140,8 +147,10 @@ int gpiod_chip_get_lines(struct gpiod_chip *chip, unsigned int *offsets,
     return 0;
 }
 
-int gpiod_line_request_bulk_output(struct gpiod_line_bulk *bulk, const char *consumer,
-                                   const int *default_vals)
+/* A request of the lines of bulk (outputs with default_vals, or inputs with
+ * or without events): the common checks and bookkeeping. */
+static int request_lines(struct gpiod_line_bulk *bulk, const char *consumer, const int *default_vals,
+                         int input, int events)
 {
     struct pk_gpiod_mock *m = bulk_mock(bulk);
     if (m == NULL)
@@ -163,12 +172,163 @@ int gpiod_line_request_bulk_output(struct gpiod_line_bulk *bulk, const char *con
         l->handle = h;
         l->pos = i;
         snprintf(l->consumer, sizeof l->consumer, "%s", consumer ? consumer : "");
-        l->value = default_vals ? !!default_vals[i] : 0;
+        l->is_input = (uint8_t)input;
+        l->events = (uint8_t)events;
+        l->evq_n = 0;
         m->requested++;
+        if (input)
+            continue; /* it keeps the level the outside drives; not an output edge */
+        l->value = default_vals ? !!default_vals[i] : 0;
         if (m->sink)
             m->sink(m->sink_arg, l->offset, l->value, t, 1);
     }
     return 0;
+}
+
+int gpiod_line_request_bulk_output(struct gpiod_line_bulk *bulk, const char *consumer,
+                                   const int *default_vals)
+{
+    return request_lines(bulk, consumer, default_vals, 0, 0);
+}
+
+int gpiod_line_request_bulk_input_flags(struct gpiod_line_bulk *bulk, const char *consumer, int flags)
+{
+    (void)flags; /* bias: the simulated outside world drives the level */
+    return request_lines(bulk, consumer, NULL, 1, 0);
+}
+
+int gpiod_line_request_bulk_both_edges_events_flags(struct gpiod_line_bulk *bulk,
+                                                    const char *consumer, int flags)
+{
+    (void)flags;
+    return request_lines(bulk, consumer, NULL, 1, 1);
+}
+
+/* Exactly the lines of one request, in request order (as for set). */
+static int whole_request(const struct pk_gpiod_mock *m, const struct gpiod_line_bulk *bulk)
+{
+    unsigned int h = bulk->lines[0]->handle, n = 0;
+    if (h == 0u)
+        return EPERM;
+    for (unsigned int i = 0; i < bulk->num_lines; i++)
+        if (bulk->lines[i]->handle != h || bulk->lines[i]->pos != i)
+            return EINVAL;
+    for (unsigned int i = 0; i < m->num_lines; i++)
+        n += m->line[i].handle == h;
+    return n == bulk->num_lines ? 0 : EINVAL;
+}
+
+int gpiod_line_get_value_bulk(struct gpiod_line_bulk *bulk, int *values)
+{
+    struct pk_gpiod_mock *m = bulk_mock(bulk);
+    if (m == NULL)
+        return fail(EINVAL);
+    m->calls.get++;
+    if (m->fail_get_errno != 0)
+        return fail(m->fail_get_errno);
+    int e = whole_request(m, bulk);
+    if (e != 0)
+        return fail(e);
+    for (unsigned int i = 0; i < bulk->num_lines; i++)
+        values[i] = bulk->lines[i]->value;
+    return 0;
+}
+
+int gpiod_line_event_wait_bulk(struct gpiod_line_bulk *bulk, const struct timespec *timeout,
+                               struct gpiod_line_bulk *event_bulk)
+{
+    (void)timeout; /* never blocks: see gpiod_mock.h */
+    struct pk_gpiod_mock *m = bulk_mock(bulk);
+    if (m == NULL)
+        return fail(EINVAL);
+    m->calls.wait++;
+    if (m->fail_wait_errno != 0)
+        return fail(m->fail_wait_errno);
+    for (unsigned int i = 0; i < bulk->num_lines; i++)
+        if (bulk->lines[i]->handle == 0u || !bulk->lines[i]->events)
+            return fail(EPERM);
+    if (event_bulk != NULL)
+        gpiod_line_bulk_init(event_bulk);
+    int any = 0;
+    for (unsigned int i = 0; i < bulk->num_lines; i++) {
+        if (bulk->lines[i]->evq_n == 0u)
+            continue;
+        any = 1;
+        if (event_bulk != NULL)
+            gpiod_line_bulk_add(event_bulk, bulk->lines[i]);
+    }
+    return any;
+}
+
+int gpiod_line_event_read(struct gpiod_line *line, struct gpiod_line_event *event)
+{
+    struct pk_gpiod_mock *m = line->chip->mock;
+    m->calls.read++;
+    if (line->handle == 0u || !line->events)
+        return fail(EPERM);
+    if (line->evq_n == 0u)
+        return fail(EAGAIN);
+    event->event_type = line->evq_type[0];
+    event->ts.tv_sec = (time_t)(line->evq_t[0] / 1000000000u);
+    event->ts.tv_nsec = (long)(line->evq_t[0] % 1000000000u);
+    line->evq_n--;
+    memmove(line->evq_type, line->evq_type + 1, line->evq_n);
+    memmove(line->evq_t, line->evq_t + 1, line->evq_n * sizeof line->evq_t[0]);
+    return 0;
+}
+
+int pk_gpiod_mock_input_set(struct pk_gpiod_mock *m, unsigned int offset, int level)
+{
+    if (offset >= m->num_lines)
+        return -1;
+    struct gpiod_line *l = &m->line[offset];
+    if (l->handle != 0u && !l->is_input)
+        return -1;
+    int v = !!level;
+    if (v == l->value)
+        return 0;
+    l->value = v;
+    if (l->handle != 0u && l->events) {
+        if (l->evq_n < PK_GPIOD_MOCK_EVQ) {
+            l->evq_type[l->evq_n] = (uint8_t)(v ? GPIOD_LINE_EVENT_RISING_EDGE : GPIOD_LINE_EVENT_FALLING_EDGE);
+            l->evq_t[l->evq_n] = mock_now(m);
+            l->evq_n++;
+            m->events_queued++;
+        } else {
+            m->events_dropped++;
+        }
+    }
+    return 0;
+}
+
+int pk_gpiod_mock_input_at(struct pk_gpiod_mock *m, uint64_t t, unsigned int offset, int level)
+{
+    if (m->n_script >= PK_GPIOD_MOCK_SCRIPT || offset >= m->num_lines
+        || (m->n_script > 0u && t < m->script[m->n_script - 1u].t))
+        return -1;
+    m->script[m->n_script++] = (struct pk_gpiod_mock_in_edge){ t, (uint8_t)offset, (uint8_t)!!level };
+    return 0;
+}
+
+void pk_gpiod_mock_input_advance(struct pk_gpiod_mock *m, uint64_t now)
+{
+    while (m->i_script < m->n_script && m->script[m->i_script].t <= now) {
+        const struct pk_gpiod_mock_in_edge *e = &m->script[m->i_script++];
+        (void)pk_gpiod_mock_input_set(m, e->offset, e->level);
+    }
+}
+
+uint64_t pk_gpiod_mock_input_next(const struct pk_gpiod_mock *m)
+{
+    return m->i_script < m->n_script ? m->script[m->i_script].t : UINT64_MAX;
+}
+
+uint32_t pk_gpiod_mock_events_pending(const struct pk_gpiod_mock *m)
+{
+    uint32_t n = 0;
+    for (unsigned int i = 0; i < m->num_lines; i++)
+        n += m->line[i].evq_n;
+    return n;
 }
 
 int gpiod_line_set_value_bulk(struct gpiod_line_bulk *bulk, const int *values)
@@ -182,7 +342,7 @@ int gpiod_line_set_value_bulk(struct gpiod_line_bulk *bulk, const int *values)
         (m->calls.set == m->fail_set_nth || (m->fail_set_sticky && m->calls.set > m->fail_set_nth)))
         e = m->fail_set_errno ? m->fail_set_errno : EIO;
     for (unsigned int i = 0; i < bulk->num_lines && e == 0; i++)
-        if (bulk->lines[i]->handle == 0u)
+        if (bulk->lines[i]->handle == 0u || bulk->lines[i]->is_input)
             e = EPERM;
     if (e == 0) {
         /* Exactly the lines of one request, in order (see gpiod_mock.h). */
@@ -225,8 +385,7 @@ void gpiod_line_release_bulk(struct gpiod_line_bulk *bulk)
     m->calls.release++;
     for (unsigned int i = 0; i < bulk->num_lines; i++) {
         if (bulk->lines[i]->handle != 0u) {
-            bulk->lines[i]->handle = 0;
-            bulk->lines[i]->consumer[0] = '\0';
+            line_free(bulk->lines[i]);
             m->requested--;
         }
     }

@@ -3,7 +3,8 @@
  * only): the protocol engine (pk_grbl) over the UART shim (pk_uart), driving
  * the motion core (pk_machine) through the adapter (pk_grbl_motion), on the
  * recording HAL with a simulated clock (hal_record, logging off so that a
- * long session uses constant memory).
+ * long session uses constant memory), with a RAM store for the settings
+ * (pk_grbl_ram_nvm) that survives pk_grbl_sim_restart like an EEPROM.
  *
  * pk_grbl_sim_step() is one main-loop iteration followed by `ticks` of
  * simulated time in which the step-timer callbacks run at their exact ticks.
@@ -32,10 +33,18 @@ struct pk_grbl_sim {
     struct pk_grbl_motion gm;
     struct pk_uart uart;
     struct pk_grbl g;
+    uint8_t nvm_buf[PK_GRBL_NVM_BYTES]; /**< the "EEPROM" (kept by restart) */
+    struct pk_grbl_ram_nvm ram;
+    uint32_t tick_hz;
 };
 
-/** Build and start (greeting queued). tick_hz e.g. 1000000. 0 or -1. */
+/** Build and start (greeting queued) with an erased store. set: the settings
+ *  (NULL: the store's, i.e. the defaults). tick_hz e.g. 1000000. 0 or -1. */
 int pk_grbl_sim_init(struct pk_grbl_sim *s, uint32_t tick_hz, const struct pk_grbl_settings *set);
+
+/** Power-cycle: a new machine at position 0 and a new engine, the store kept
+ *  (settings come from it). 0 or -1. */
+int pk_grbl_sim_restart(struct pk_grbl_sim *s);
 
 /** One main iteration (engine + machine poll), then advance `ticks`. */
 void pk_grbl_sim_step(struct pk_grbl_sim *s, uint64_t ticks);

@@ -8,6 +8,16 @@
  * runs are repeatable and independent of the host's speed. Failures can be
  * injected per kind after a number of successful writes. Reusable by any
  * test or simulator that wants to look at the pulses a core emitted.
+ *
+ * Inputs (pk_rec_inputs): input lines whose raw levels follow a script of
+ * edges on the simulated clock ("at tick T line L goes to level V") or
+ * switches at a position along an axis (a limit switch or a probe that is
+ * active while the axis, as decoded from the step/dir writes, is at or
+ * beyond a step count). Changes are reported through the registered edge
+ * callback as a pin-change interrupt would: a scripted edge at its tick
+ * (before a timer callback due at the same tick), a switch right after the
+ * timer callback whose step moved it (never inside it). Without edges
+ * (edges = 0) input_watch answers PK_HAL_ENOSYS and the core reads the levels.
  */
 #ifndef PLOTKIN_HAL_RECORD_H
 #define PLOTKIN_HAL_RECORD_H
@@ -25,6 +35,25 @@ struct pk_rec_event {
     uint32_t levels;   /* raw levels of those lines */
 };
 
+/** A scripted raw level change of an input line. */
+struct pk_rec_in_edge {
+    uint64_t tick;
+    uint8_t line;      /* enum pk_hal_input */
+    uint8_t level;     /* raw level from then on */
+};
+
+/** A switch along an axis: active while the axis is at or beyond at_steps
+ *  (side +1: pos >= at_steps; side -1: pos <= at_steps). */
+struct pk_rec_switch {
+    uint8_t line;      /* enum pk_hal_input */
+    uint8_t axis;
+    int8_t side;
+    int32_t at_steps;
+};
+
+#define PK_REC_SWITCHES 8
+#define PK_REC_IN_EDGES 64
+
 struct pk_rec {
     struct pk_hal hal;            /* ready to pass to the core (ops/ctx filled in) */
     uint64_t now;                 /* simulated clock, ticks */
@@ -39,6 +68,20 @@ struct pk_rec {
     uint64_t attempts[PK_REC_KINDS]; /* writes attempted (failed ones included) */
     uint64_t callbacks;           /* callbacks made */
     int reentered;                /* set if the callback was re-entered (bug) */
+    /* inputs (pk_rec_inputs) */
+    int64_t pos[PK_HAL_MAX_AXES]; /* axis positions decoded from the step/dir writes */
+    uint32_t in_raw;              /* raw input levels now */
+    int in_edges;                 /* input_watch works (else it answers PK_HAL_ENOSYS) */
+    pk_hal_input_cb in_cb;        /* registered edge callback, or NULL */
+    void *in_arg;
+    int in_pending;               /* a switch changed inside a timer callback */
+    struct pk_rec_in_edge in_script[PK_REC_IN_EDGES]; /* in tick order */
+    size_t n_script, i_script;
+    struct pk_rec_switch sw[PK_REC_SWITCHES];
+    size_t n_sw;
+    uint64_t input_reads;         /* input_read calls */
+    uint64_t input_reports;       /* edge callbacks made */
+    long in_fail_after;           /* -1: never; else input reads left before failing */
 };
 
 /** Initialise with tick_hz; all lines low, no failure, logging on. */
@@ -49,5 +92,16 @@ void pk_rec_free(struct pk_rec *r);
 void pk_rec_advance(struct pk_rec *r, uint64_t until);
 /** True while the timer is armed. */
 int pk_rec_armed(const struct pk_rec *r);
+
+/** Give the HAL input lines: inputs / invert as struct pk_hal.inputs and
+ *  .input_invert, every line inactive; edges = 1: with input_watch (edge
+ *  reports), 0: without (the core reads). Call before pk_machine_init. */
+void pk_rec_inputs(struct pk_rec *r, uint32_t inputs, uint32_t invert, int edges);
+/** Script input line `line` to take LOGICAL level `active` at tick t (ticks
+ *  must not decrease from call to call). Returns 0, or -1 if the script is full. */
+int pk_rec_input_at(struct pk_rec *r, uint64_t t, unsigned line, int active);
+/** Add a switch (see struct pk_rec_switch); its line's level follows it
+ *  from now on. Returns 0, or -1 if full. */
+int pk_rec_add_switch(struct pk_rec *r, unsigned line, unsigned axis, int side, int32_t at_steps);
 
 #endif

@@ -70,6 +70,12 @@ static int serve_main(void *arg, uint64_t now)
 
 int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim)
 {
+    return pk_serve_sim_start_nvm(s, chip, lim, NULL);
+}
+
+int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                           const struct pk_grbl_nvm *nvm_in)
+{
     memset(s, 0, sizeof *s);
     pk_sim_cfg_default(&s->cfg);
     struct pk_sim_opts o = { .chip = chip, .cfg = &s->cfg, .program = "", .len = 0, .lim = *lim,
@@ -89,7 +95,20 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
     struct pk_grbl_stream io = { read_uart, write_scanned, rx_used, s };
     struct pk_grbl_machine_ops ops;
     pk_grbl_motion_ops(&ops);
-    if (pk_grbl_init(&s->g, &io, &ops, &s->gm, NULL) != 0) {
+    struct pk_grbl_nvm nvm;
+    struct pk_grbl_settings dflt, *set = NULL;
+    if (nvm_in != NULL) {
+        nvm = *nvm_in; /* settings: the store's (first time: restored to the defaults) */
+    } else {
+        /* a fresh store, as a board whose EEPROM holds the defaults */
+        memset(s->nvm_buf, 0xff, sizeof s->nvm_buf);
+        s->ram.buf = s->nvm_buf;
+        s->ram.size = sizeof s->nvm_buf;
+        pk_grbl_ram_nvm(&s->ram, &nvm);
+        pk_grbl_settings_default(&dflt);
+        set = &dflt;
+    }
+    if (pk_grbl_init(&s->g, &io, &ops, &s->gm, set, &nvm) != 0) {
         snprintf(s->r.err, sizeof s->r.err, "the Grbl engine could not configure the machine");
         return -1;
     }

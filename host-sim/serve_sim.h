@@ -27,6 +27,8 @@ struct pk_serve_sim {
     struct pk_grbl_motion gm;
     struct pk_uart uart;          /**< bytes in with pk_uart_rx_push, out with pk_uart_tx_pop */
     struct pk_grbl g;
+    uint8_t nvm_buf[PK_GRBL_NVM_BYTES]; /**< the RAM store used when start gets no nvm */
+    struct pk_grbl_ram_nvm ram;
     uint8_t in_alarm;             /* private: alarm state seen at the last iteration */
     char ans[16];                 /* private: start of the answer line being sent */
     uint8_t ans_n;
@@ -39,6 +41,11 @@ struct pk_serve_sim {
  * the reason in s->r.err (call pk_serve_sim_free in both cases).
  */
 int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim);
+
+/** The same with a given non-volatile store for the settings (e.g. a file,
+ *  hal/posix/pk_nvm_file.h), or NULL for an erased RAM one. */
+int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                           const struct pk_grbl_nvm *nvm);
 
 /**
  * Run the firmware (engine main loop, machine poll, step-timer callbacks at

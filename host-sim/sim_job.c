@@ -1,24 +1,28 @@
 /*
- * sim_job.c — G-code / polyline programs through the firmware (see sim_job.h).
+ * sim_job.c — G-code / polyline programs streamed through the firmware's
+ * Grbl engine (see sim_job.h).
  */
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include "sim_job.h"
-#include "pk_grbl.h"
-#include "pk_grbl_motion.h"
-
-/* Requests one G-code line can need: pen + dwell + path + move + end. */
-#define ROOM_PER_LINE 5u
 
 static int failf(char *err, size_t errlen, const char *fmt, ...);
 
 /* ---- settings: Grbl's `$N` table of the firmware (pk_grbl.h) ------------ */
 
-/* The double member of c that holds setting idx (enum pk_grbl_setting) as
- * the user writes it, or NULL for the whole-number ones (see cfg_uint). */
+static double pow10d(unsigned d)
+{
+    double p = 1.0;
+    while (d--)
+        p *= 10.0;
+    return p;
+}
+
+/* The double member of c that mirrors setting idx, or NULL. */
 static double *cfg_double(struct pk_sim_cfg *c, int idx)
 {
     switch (idx) {
@@ -28,13 +32,13 @@ static double *cfg_double(struct pk_sim_cfg *c, int idx)
     case PK_GRBL_S_DIR_SETUP_US: return &c->dir_setup_us;
     default: break;
     }
-    if (idx >= PK_GRBL_S_STEPS_X && idx <= PK_GRBL_S_STEPS_Z)
+    if (idx >= PK_GRBL_S_STEPS_X && idx < PK_GRBL_S_STEPS_X + PK_GC_AXES)
         return &c->steps_per_mm[idx - PK_GRBL_S_STEPS_X];
-    if (idx >= PK_GRBL_S_RATE_X && idx <= PK_GRBL_S_RATE_Z)
+    if (idx >= PK_GRBL_S_RATE_X && idx < PK_GRBL_S_RATE_X + PK_GC_AXES)
         return &c->max_rate[idx - PK_GRBL_S_RATE_X];
-    if (idx >= PK_GRBL_S_ACCEL_X && idx <= PK_GRBL_S_ACCEL_Z)
+    if (idx >= PK_GRBL_S_ACCEL_X && idx < PK_GRBL_S_ACCEL_X + PK_GC_AXES)
         return &c->accel[idx - PK_GRBL_S_ACCEL_X];
-    if (idx >= PK_GRBL_S_TRAVEL_X && idx <= PK_GRBL_S_TRAVEL_Z)
+    if (idx >= PK_GRBL_S_TRAVEL_X && idx < PK_GRBL_S_TRAVEL_X + PK_GC_AXES)
         return &c->travel[idx - PK_GRBL_S_TRAVEL_X];
     return NULL;
 }
@@ -48,19 +52,23 @@ static unsigned *cfg_uint(struct pk_sim_cfg *c, int idx)
     case PK_GRBL_S_DEPTH: return &c->depth;
     case PK_GRBL_S_CORNER_DEG: return &c->sharp_deg;
     case PK_GRBL_S_PEN_SETTLE_MS: return &c->pen_settle_ms;
+    case PK_GRBL_S_LASER: return &c->laser_mode;
     default: return NULL;
     }
 }
 
 void pk_sim_cfg_from_grbl(struct pk_sim_cfg *c, const struct pk_grbl_settings *s)
 {
+    c->set = *s;
     for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
-        double *d = cfg_double(c, i);
-        unsigned *u = cfg_uint(c, i);
-        if (d != NULL)
-            *d = (double)s->v[i] / 1e6;
-        else if (u != NULL)
-            *u = (unsigned)(s->v[i] / 1000000);
+        struct pk_grbl_setting_def dd, *d = &dd;
+        (void)pk_grbl_setting_def(i, &dd);
+        double *dv = cfg_double(c, i);
+        unsigned *uv = cfg_uint(c, i);
+        if (dv != NULL)
+            *dv = (double)s->v[i] / pow10d(d->dec);
+        else if (uv != NULL)
+            *uv = (unsigned)(s->v[i] / (int32_t)pow10d(d->dec));
     }
 }
 
@@ -68,18 +76,22 @@ int pk_sim_cfg_to_grbl(const struct pk_sim_cfg *cc, struct pk_grbl_settings *s, 
                        size_t errlen)
 {
     struct pk_sim_cfg *c = (struct pk_sim_cfg *)cc; /* only read through the accessors */
+    *s = c->set;
     for (int i = 0; i < PK_GRBL_S_COUNT; i++) {
-        const struct pk_grbl_setting_def *d = pk_grbl_setting_def(i);
+        struct pk_grbl_setting_def dd, *d = &dd;
+        (void)pk_grbl_setting_def(i, &dd);
         const double *dv = cfg_double(c, i);
         const unsigned *uv = cfg_uint(c, i);
-        double v = dv != NULL ? *dv * 1e6 : (double)*uv * 1e6;
+        if (dv == NULL && uv == NULL)
+            continue;
+        double v = dv != NULL ? *dv * pow10d(d->dec) : (double)*uv * pow10d(d->dec);
         if (!(v >= (double)d->min - 0.5 && v <= (double)d->max + 0.5))
             return failf(err, errlen, "$%u out of range (%g..%g)", (unsigned)d->num,
-                         (double)d->min / 1e6, (double)d->max / 1e6);
-        s->v[i] = (pk_gc_u6_t)llround(v);
-        if (d->integer && s->v[i] % 1000000 != 0)
-            return failf(err, errlen, "$%u must be a whole number", (unsigned)d->num);
+                         (double)d->min / pow10d(d->dec), (double)d->max / pow10d(d->dec));
+        s->v[i] = (int32_t)llround(v);
     }
+    if (s->v[PK_GRBL_S_SOFT_LIMITS] && !s->v[PK_GRBL_S_HOMING])
+        return failf(err, errlen, "$20=1 needs $22=1 (error:10)");
     return 0;
 }
 
@@ -91,10 +103,20 @@ void pk_sim_cfg_default(struct pk_sim_cfg *c)
     pk_sim_cfg_from_grbl(c, &s);
     c->axes = PK_AXES;
     c->polyline_feed = 3000.0;
-    c->laser_mode = 0;
     c->pen_z_on = 0;
     c->tick_hz = 1000000u;
 }
+
+void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out)
+{
+    out->mode = c->laser_mode ? PK_PEN_LASER : c->pen_z_on ? PK_PEN_Z : PK_PEN_TOOL;
+    out->z_down_um = c->pen_z_mm * 1000.0;
+}
+
+/* $208 (pen-down height): how the simulator reads a drawing; not a firmware
+ * setting. Returns 1 if handled (*rc: 0 or the failure). */
+static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
+                            size_t errlen, unsigned lineno, int *rc);
 
 static int failf(char *err, size_t errlen, const char *fmt, ...)
 {
@@ -107,58 +129,48 @@ static int failf(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
-void pk_sim_cfg_pen(const struct pk_sim_cfg *c, struct pk_pen_cfg *out)
-{
-    out->mode = c->laser_mode ? PK_PEN_LASER : c->pen_z_on ? PK_PEN_Z : PK_PEN_TOOL;
-    out->z_down_um = c->pen_z_mm * 1000.0;
-}
-
-/* $32 (laser mode) and $208 (pen-down height): how the simulator reads a
- * drawing; not in the firmware's table yet. Returns 1 if handled. */
 static int sim_only_setting(struct pk_sim_cfg *c, unsigned long num, const char *val, char *err,
                             size_t errlen, unsigned lineno, int *rc)
 {
-    if (num != 32u && num != 208u)
+    if (num != 208u)
         return 0;
     char *end;
     double v = strtod(val, &end);
-    while (isspace((unsigned char)*end))
-        end++;
     if (end == val || *end != '\0' || !isfinite(v)) {
         *rc = failf(err, errlen, "line %u: $%lu: bad number", lineno, num);
         return 1;
     }
-    if (num == 32u) {
-        if (v != 0.0 && v != 1.0) {
-            *rc = failf(err, errlen, "line %u: $32 must be 0 or 1", lineno);
-            return 1;
-        }
-        c->laser_mode = (unsigned)v;
-    } else {
-        c->pen_z_on = 1;
-        c->pen_z_mm = v;
-    }
+    c->pen_z_on = 1;
+    c->pen_z_mm = v;
     *rc = 0;
     return 1;
-}
-
-/* Grbl 1.1 settings plotkin has no use for: accepted, ignored. */
-static int grbl_ignored(unsigned long n)
-{
-    static const unsigned ign[] = { 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 24, 25, 26, 27,
-                                    30, 31 };
-    for (size_t i = 0; i < sizeof ign / sizeof ign[0]; i++)
-        if (ign[i] == n)
-            return 1;
-    return 0;
 }
 
 static const char *grbl_error_text(int code)
 {
     switch (code) {
+    case 2: return "bad number";
     case 3: return "not a setting plotkin has, or out of its range";
     case 4: return "negative value";
-    default: return "bad number";
+    case 6: return "step pulse below 3 us";
+    case 10: return "soft limits need homing enabled ($22=1)";
+    default: return "refused";
+    }
+}
+
+/* Settings the firmware stores and reports but that change nothing in a
+ * simulated run (the inputs phase, drivers, reports). */
+static const char *stored_only(int idx)
+{
+    switch (idx) {
+    case PK_GRBL_S_IDLE_DELAY_MS: return "stored: the drivers stay enabled";
+    case PK_GRBL_S_LIMIT_INVERT: case PK_GRBL_S_PROBE_INVERT: case PK_GRBL_S_HARD_LIMITS:
+    case PK_GRBL_S_HOMING_DIR: case PK_GRBL_S_HOMING_FEED: case PK_GRBL_S_HOMING_SEEK:
+    case PK_GRBL_S_HOMING_DEBOUNCE: case PK_GRBL_S_HOMING_PULLOFF:
+        return "stored: no limit switch or probe inputs yet";
+    case PK_GRBL_S_REPORT_MASK: case PK_GRBL_S_REPORT_INCHES:
+        return "status reports only";
+    default: return NULL;
     }
 }
 
@@ -183,50 +195,47 @@ int pk_sim_cfg_parse(struct pk_sim_cfg *c, const char *text, char *err, size_t e
         char *cm = strpbrk(s, ";#(");
         if (cm)
             *cm = '\0';
-        while (isspace((unsigned char)*s))
-            s++;
-        size_t k = strlen(s);
-        while (k > 0 && isspace((unsigned char)s[k - 1]))
-            s[--k] = '\0';
-        if (*s == '\0')
+        /* Grbl's line assembly: blanks out, letters up */
+        size_t k = 0;
+        for (char *q = s; *q; q++)
+            if (!isspace((unsigned char)*q))
+                s[k++] = (char)toupper((unsigned char)*q);
+        s[k] = '\0';
+        if (k == 0)
             continue;
         if (*s != '$' || !isdigit((unsigned char)s[1]))
             return failf(err, errlen, "line %u: expected $N=value", lineno);
-        char *end;
-        unsigned long num = strtoul(s + 1, &end, 10);
-        while (isspace((unsigned char)*end))
-            end++;
-        if (*end != '=')
-            return failf(err, errlen, "line %u: expected '=' after $%lu", lineno, num);
-        int src;
-        if (sim_only_setting(c, num, end + 1, err, errlen, lineno, &src)) {
-            if (src != 0)
-                return src;
-            continue;
+        {
+            char *eq = NULL;
+            unsigned long num = strtoul(s + 1, &eq, 10);
+            int src;
+            if (eq != NULL && *eq == '=' && sim_only_setting(c, num, eq + 1, err, errlen, lineno, &src)) {
+                if (src != 0)
+                    return src;
+                continue;
+            }
         }
-        if (num > 65535ul || pk_grbl_setting_index((uint32_t)num) < 0) {
-            if (!grbl_ignored(num))
-                return failf(err, errlen, "line %u: unknown setting $%lu", lineno, num);
-            if (warn)
-                fprintf(warn, "plotkin sim: note: $%lu has no effect in plotkin\n", num);
-            continue;
-        }
-        /* The firmware's own parser and table: the same numbers, ranges and
-         * number syntax as `$N=value` sent to the Grbl engine. */
-        int idx;
-        pk_gc_u6_t val;
-        int rc = pk_grbl_setting_parse((const uint8_t *)s + 1, k - 1u, &idx, &val);
-        if (rc != 0) {
-            const struct pk_grbl_setting_def *d = pk_grbl_setting_def(pk_grbl_setting_index((uint32_t)num));
-            return failf(err, errlen, "line %u: $%lu: error:%d (%s; range %g..%g%s)", lineno, num, rc,
-                         grbl_error_text(rc), (double)d->min / 1e6, (double)d->max / 1e6,
-                         d->integer ? ", whole numbers" : "");
-        }
+        /* The firmware's own parser, table and rules: the same numbers,
+         * ranges and number syntax as `$N=value` sent to the Grbl engine. */
         struct pk_grbl_settings set;
         if (pk_sim_cfg_to_grbl(c, &set, NULL, 0) != 0)
-            pk_grbl_settings_default(&set); /* c was edited out of range: start clean */
-        set.v[idx] = val;
+            set = c->set;
+        int rc = pk_grbl_settings_apply(&set, s);
+        if (rc != 0) {
+            unsigned long num = strtoul(s + 1, NULL, 10);
+            int idx = pk_grbl_setting_index((uint32_t)num);
+            struct pk_grbl_setting_def dd, *d = pk_grbl_setting_def(idx, &dd) == 0 ? &dd : NULL;
+            if (d == NULL)
+                return failf(err, errlen, "line %u: unknown setting $%lu (error:%d)", lineno, num, rc);
+            return failf(err, errlen, "line %u: $%lu: error:%d (%s; range %g..%g%s)", lineno, num, rc,
+                         grbl_error_text(rc), (double)d->min / pow10d(d->dec),
+                         (double)d->max / pow10d(d->dec), d->dec == 0 ? ", whole numbers" : "");
+        }
         pk_sim_cfg_from_grbl(c, &set);
+        int idx = pk_grbl_setting_index((uint32_t)strtoul(s + 1, NULL, 10));
+        if (warn && stored_only(idx))
+            fprintf(warn, "plotkin sim: note: $%u has no effect in plotkin sim (%s)\n",
+                    (unsigned)strtoul(s + 1, NULL, 10), stored_only(idx));
     }
     return 0;
 }
@@ -246,6 +255,36 @@ int pk_sim_cfg_motion(const struct pk_sim_cfg *c, struct pk_motion_cfg *o, char 
 }
 
 /* ---- polyline files ------------------------------------------------------ */
+
+/* One polyline line: 1 with x, y if it is "x y" (or "x, y"), 0 if blank or a
+ * comment, -1 otherwise. */
+static int poly_line(const char *line, size_t n, double *x, double *y)
+{
+    char b[256];
+    if (n >= sizeof b)
+        return -1;
+    memcpy(b, line, n);
+    b[n] = '\0';
+    char *h = strchr(b, '#');
+    if (h)
+        *h = '\0';
+    char *s = b;
+    while (isspace((unsigned char)*s))
+        s++;
+    if (*s == '\0')
+        return 0;
+    char *e1, *e2;
+    *x = strtod(s, &e1);
+    if (e1 == s)
+        return -1;
+    *y = strtod(e1, &e2);
+    if (e2 == e1)
+        return -1;
+    while (isspace((unsigned char)*e2) || *e2 == ',')
+        e2++;
+    return *e2 == '\0' && isfinite(*x) && isfinite(*y) ? 1 : -1;
+}
+
 struct sbuf { char *p; size_t n, cap; int oom; };
 
 static void sb_printf(struct sbuf *b, const char *fmt, ...)
@@ -277,44 +316,25 @@ static void sb_printf(struct sbuf *b, const char *fmt, ...)
 char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline)
 {
     struct sbuf b = { 0 };
-    int in_stroke = 0;
+    int in_stroke = 0, any = 0;
     *is_polyline = 0;
     sb_printf(&b, "G21 G90\n");
     for (const char *p = text; *p;) {
         size_t n = strcspn(p, "\n");
-        char line[256];
-        if (n >= sizeof line) {
+        double x, y;
+        int r = poly_line(p, n, &x, &y);
+        p += n + (p[n] == '\n');
+        if (r < 0) {
             free(b.p);
             return NULL;
         }
-        memcpy(line, p, n);
-        line[n] = '\0';
-        p += n + (p[n] == '\n');
-        char *h = strchr(line, '#');
-        if (h)
-            *h = '\0';
-        char *s = line;
-        while (isspace((unsigned char)*s))
-            s++;
-        if (*s == '\0') {
+        if (r == 0) {
             if (in_stroke)
                 sb_printf(&b, "M5\n");
             in_stroke = 0;
             continue;
         }
-        char *e1, *e2;
-        double x = strtod(s, &e1);
-        double y = e1 == s ? 0.0 : strtod(e1, &e2);
-        if (e1 == s || e2 == e1) {
-            free(b.p);
-            return NULL;
-        }
-        while (isspace((unsigned char)*e2) || *e2 == ',')
-            e2++;
-        if (*e2 != '\0' || !isfinite(x) || !isfinite(y)) {
-            free(b.p);
-            return NULL;
-        }
+        any = 1;
         if (!in_stroke) {
             sb_printf(&b, "G0 X%.3f Y%.3f\nM3\n", x, y);
             in_stroke = 1;
@@ -325,7 +345,7 @@ char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline)
     if (in_stroke)
         sb_printf(&b, "M5\n");
     sb_printf(&b, "M2\n");
-    if (b.oom) {
+    if (b.oom || !any) {
         free(b.p);
         return NULL;
     }
@@ -333,200 +353,424 @@ char *pk_sim_polyline_to_gcode(const char *text, double feed, int *is_polyline)
     return b.p;
 }
 
-/* ---- the job ------------------------------------------------------------- */
-void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
-                     const char *text, size_t len)
-{
-    struct pk_gc_limits lim;
-    pk_um_t zero[PK_GC_AXES] = { 0 };
-    memset(j, 0, sizeof *j);
-    j->m = m;
-    j->cfg = cfg;
-    j->text = text;
-    j->len = len;
-    for (int i = 0; i < PK_GC_AXES; i++) {
-        double t = cfg->travel[i] * 1000.0;
-        pk_um_t tu = t > PK_UM_MAX ? PK_UM_MAX : (pk_um_t)llround(t);
-        lim.min_um[i] = i < 2 ? 0 : -tu; /* as the Grbl engine: X, Y in [0, $13x] */
-        lim.max_um[i] = tu;
-    }
-    pk_gcode_state_init(&j->gc, &lim, zero);
-    pk_sim_cfg_pen(cfg, &j->pen_cfg);
-}
+/* ---- the program source: text or a file, streamed ---------------------------- */
 
-void pk_sim_job_free(struct pk_sim_job *j) { (void)j; }
-
-/* The observer's primitive for a move from j->cur (µm) to `to` (at least
- * PK_AXES coordinates; axes beyond PK_AXES stay 0). */
-static void observe_move(struct pk_sim_job *j, const pk_um_t *to, int rapid, const pk_um_t (*ctrl)[2],
-                         int nctrl)
-{
-    struct pk_path_prim p;
-    double a[3] = { 0, 0, 0 }, b[3] = { 0, 0, 0 };
-    if (j->obs.on_prim == NULL)
-        return;
-    for (int i = 0; i < PK_GC_AXES && i < PK_AXES; i++) {
-        a[i] = (double)j->cur[i];
-        b[i] = (double)to[i];
-    }
-    pk_path_line(&p, a, b);
-    if (nctrl > 0) {
-        p.kind = nctrl == 1 ? PK_PATH_QUAD : PK_PATH_CUBIC;
-        for (int k = 0; k < nctrl; k++) {
-            p.c[k][0] = (double)ctrl[k][0];
-            p.c[k][1] = (double)ctrl[k][1];
-            p.c[k][2] = a[2]; /* G5/G5.1 are XY curves */
-        }
-    }
-    p.rapid = (uint8_t)rapid;
-    p.line = j->lineno;
-    p.drawn = (uint8_t)pk_pen_prog_drawn(&j->pen_cfg, j->pen, j->s_power, rapid, a[2], b[2]);
-    j->obs.on_prim(j->obs.arg, &p);
-}
-
-static void gc_error(struct pk_sim_job *j, int code) { pk_sim_job_note_error(j, j->lineno, code); }
-
-static int request_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES], pk_gc_umpm_t feed, int rapid)
-{
-    pk_um_t tgt[PK_AXES];
-    for (int i = 0; i < PK_AXES; i++)
-        tgt[i] = to[i];
-    pk_um_min_t f = feed <= 0 ? 1u : (pk_um_min_t)feed;
-    if (f > PK_UM_MIN_MAX)
-        f = PK_UM_MIN_MAX;
-    int rc = pk_machine_move(j->m, tgt, f, rapid ? PK_MOVE_RAPID : PK_MOVE_FEED);
-    if (rc == PK_MOTION_OK) {
-        for (int i = 0; i < PK_AXES; i++)
-            j->cur[i] = tgt[i];
-        j->move_requests++;
-    }
-    return rc;
-}
-
-/* Next line of the program into buf (without terminator); 0 at the end. */
-static int next_line(struct pk_sim_job *j, const uint8_t **line, size_t *n)
+/* Next raw byte of the source, or -1 at its end. */
+static int src_byte(struct pk_sim_job *j)
 {
     if (j->pos >= j->len)
-        return 0;
-    size_t s = j->pos, e = s;
-    while (e < j->len && j->text[e] != '\n' && j->text[e] != '\r')
-        e++;
-    *line = (const uint8_t *)j->text + s;
-    *n = e - s;
-    j->pos = e;
-    if (j->pos < j->len && j->text[j->pos] == '\r')
-        j->pos++;
-    if (j->pos < j->len && j->text[j->pos] == '\n')
-        j->pos++;
-    j->lineno++;
-    return 1;
+        return -1;
+    j->bytes_in++;
+    return (unsigned char)j->text[j->pos++];
 }
 
-static void execute(struct pk_sim_job *j, const struct pk_gc_cmd *c)
+static void fifo_push(struct pk_sim_job *j, unsigned line)
 {
-    if (c->what & PK_GC_DO_PEN) {
-        (void)pk_machine_pen(j->m, c->pen == PK_GC_PEN_DOWN);
-        j->pen = c->pen == PK_GC_PEN_DOWN;
+    /* the engine numbers the lines it receives (1, 2, ...): remember the
+     * source line of the latest ones, for the observer */
+    j->lmap[j->eng_lines % (sizeof j->lmap / sizeof j->lmap[0])] = line;
+    j->eng_lines++;
+    if (j->fifo_n < sizeof j->fifo / sizeof j->fifo[0]) {
+        j->fifo[(j->fifo_head + j->fifo_n) % (sizeof j->fifo / sizeof j->fifo[0])] = line;
+        j->fifo_n++;
     }
-    if (c->what & PK_GC_DO_DWELL)
-        (void)pk_machine_dwell(j->m, c->dwell_ms > PK_DWELL_MS_MAX ? PK_DWELL_MS_MAX : c->dwell_ms);
-    if ((c->what & PK_GC_DO_PATH) && !j->cfg->force_smoothing) {
-        struct pk_smooth_cfg s = j->m->cfg.smooth;
-        if (c->path == PK_GC_PATH_EXACT) {
-            s.mode = PK_SMOOTH_OFF;
-        } else {
-            s.mode = PK_SMOOTH_TOLERANCE;
-            if (c->tol_um > 0)
-                s.tolerance_um = c->tol_um;
-            else if (s.tolerance_um <= 0)
-                s.tolerance_um = 20;
-            if (s.degree < 2u || s.degree > 3u)
-                s.degree = 3;
+}
+
+static unsigned fifo_pop(struct pk_sim_job *j)
+{
+    if (j->fifo_n == 0)
+        return 0;
+    unsigned v = j->fifo[j->fifo_head];
+    j->fifo_head = (j->fifo_head + 1u) % (sizeof j->fifo / sizeof j->fifo[0]);
+    j->fifo_n--;
+    return v;
+}
+
+/* Queue generated engine lines (s holds one or more lines separated by
+ * '\n', without the last terminator) for source line `line`. */
+static void give(struct pk_sim_job *j, const char *s, size_t n, unsigned line)
+{
+    if (j->lbuf_i >= j->lbuf_n)
+        j->lbuf_i = j->lbuf_n = 0;
+    if (n > sizeof j->lbuf - 1u - j->lbuf_n)
+        n = sizeof j->lbuf - 1u - j->lbuf_n;
+    memcpy(j->lbuf + j->lbuf_n, s, n);
+    j->lbuf_n += n;
+    j->lbuf[j->lbuf_n++] = '\n';
+    fifo_push(j, line);
+    for (size_t i = 0; i < n; i++)
+        if (s[i] == '\n')
+            fifo_push(j, line);
+}
+
+/* A polyline file: the next source line converted into lbuf; 0 at the end. */
+static int next_poly_line(struct pk_sim_job *j)
+{
+    while (!j->tail_done) {
+        char raw[256];
+        size_t n = 0;
+        int c, got = 0, over = 0;
+        while ((c = src_byte(j)) >= 0) {
+            got = 1;
+            if (c == '\n')
+                break;
+            if (n < sizeof raw)
+                raw[n++] = (char)c;
+            else
+                over = 1;
         }
-        if (pk_machine_set_smoothing(j->m, &s) == PK_MOTION_EINVAL)
-            gc_error(j, PK_GC_E_UNSUPPORTED);
-    }
-    if (c->what & PK_GC_DO_MOVE) {
-        if (c->motion == PK_GC_MOT_CUBIC || c->motion == PK_GC_MOT_QUAD) {
-            pk_um_t p[4][2] = { { c->start_um[0], c->start_um[1] },
-                                { c->ctrl_um[0][0], c->ctrl_um[0][1] },
-                                { c->ctrl_um[1][0], c->ctrl_um[1][1] },
-                                { c->target_um[0], c->target_um[1] } };
-            int quad = c->motion == PK_GC_MOT_QUAD;
-            if (quad) {
-                p[2][0] = c->target_um[0];
-                p[2][1] = c->target_um[1];
-            }
-            pk_um_t tol = j->m->cfg.smooth.tolerance_um > 0 ? j->m->cfg.smooth.tolerance_um : 10;
-            pk_bez_init(&j->bez, (const pk_um_t(*)[2])p, quad, tol);
-            observe_move(j, c->target_um, 0, (const pk_um_t(*)[2])&p[1], quad ? 1 : 2);
-            j->bez_active = 1;
-            j->bez_feed = c->feed_umpm;
-        } else {
-            int rapid = c->motion == PK_GC_MOT_RAPID;
-            pk_um_t from[PK_AXES];
-            memcpy(from, j->cur, sizeof from);
-            if (request_move(j, c->target_um, c->feed_umpm, rapid) == PK_MOTION_OK) {
-                pk_um_t to[PK_AXES];
-                memcpy(to, j->cur, sizeof to);
-                memcpy(j->cur, from, sizeof from);
-                observe_move(j, to, rapid, NULL, 0);
-                memcpy(j->cur, to, sizeof to);
-            }
+        if (!got) {
+            j->eof = 1;
+            j->tail_done = 1;
+            give(j, j->in_stroke ? "M5\nM2" : "M2", j->in_stroke ? 5u : 2u, j->src_line);
+            j->in_stroke = 0;
+            return 1;
         }
+        j->src_line++;
+        j->lines++;
+        double x, y;
+        int r = over ? -1 : poly_line(raw, n, &x, &y);
+        char g[160];
+        int k;
+        if (r <= 0) { /* blank (a detected polyline has no bad lines) */
+            if (!j->in_stroke)
+                continue;
+            j->in_stroke = 0;
+            give(j, "M5", 2, j->src_line);
+            return 1;
+        }
+        if (!j->in_stroke) {
+            k = snprintf(g, sizeof g, "G0 X%.3f Y%.3f\nM3", x, y);
+            j->in_stroke = 1;
+        } else {
+            k = snprintf(g, sizeof g, "G1 X%.3f Y%.3f F%.0f", x, y, j->cfg->polyline_feed);
+        }
+        give(j, g, (size_t)k, j->src_line);
+        return 1;
     }
-    if (c->what & PK_GC_DO_STOP) {
+    return 0;
+}
+
+/* ---- the engine's stream ----------------------------------------------------- */
+
+/* The engine asks for bytes: queued generated lines first, then the program,
+ * streamed as a sender does (the engine assembles lines itself), minus what a
+ * sender must not send as text: bytes >= 0x80 and the realtime characters.
+ * Line ends are counted as the engine counts them (LF, CR, CR LF), so the
+ * k-th answer belongs to the k-th line. */
+static int job_read(void *ctx, uint8_t *buf, size_t len)
+{
+    struct pk_sim_job *j = ctx;
+    if (len == 0)
+        return 0;
+    /* a new line only while the programmed path's observer has room (the
+     * engine reads one byte at a time; a line ends at LF or CR) */
+    int line_start = !j->midline && (j->lbuf_i >= j->lbuf_n || j->lbuf_i == 0 ||
+                                     j->lbuf[j->lbuf_i - 1] == '\n');
+    if (line_start && j->obs.room != NULL && j->obs.room(j->obs.arg) == 0u)
+        return 0;
+    if (j->lbuf_i < j->lbuf_n)
+        len = 1; /* generated lines go out a byte at a time too */
+    if (j->lbuf_i >= j->lbuf_n && !j->input_done && j->polyline)
+        (void)next_poly_line(j);
+    if (j->lbuf_i < j->lbuf_n) {
+        size_t k = j->lbuf_n - j->lbuf_i;
+        if (k > len)
+            k = len;
+        memcpy(buf, j->lbuf + j->lbuf_i, k);
+        j->lbuf_i += k;
+        return (int)k;
+    }
+    if (j->input_done || j->polyline || j->eof)
+        return 0;
+    for (;;) {
+        int c = src_byte(j);
+        if (c < 0) {
+            j->eof = 1;
+            if (!j->midline)
+                return 0;
+            c = '\n'; /* the last line had no line end */
+        }
+        if (c >= 0x80 || c == '?' || c == '!' || c == '~' || c == 0x18) {
+            j->rt_skipped++;
+            continue;
+        }
+        if (c == '\n' && j->last_cr) {
+            j->last_cr = 0; /* CR LF: the engine ends the line at the CR */
+        } else if (c == '\n' || c == '\r') {
+            j->last_cr = c == '\r';
+            j->src_line++;
+            j->lines++;
+            j->midline = 0;
+            fifo_push(j, j->src_line);
+        } else {
+            j->last_cr = 0;
+            j->midline = 1;
+        }
+        buf[0] = (uint8_t)c;
+        return 1;
+    }
+}
+
+/* The number after a "error:"/"ALARM:" prefix of a (n bytes, not NUL-terminated). */
+static int code_after(const char *a, size_t n)
+{
+    int v = 0;
+    for (size_t i = 6; i < n && a[i] >= '0' && a[i] <= '9' && v < 1000; i++)
+        v = v * 10 + (a[i] - '0');
+    return v;
+}
+
+static void answer_line(struct pk_sim_job *j, const char *a, size_t n)
+{
+    if (n == 2 && !memcmp(a, "ok", 2)) {
+        (void)fifo_pop(j);
+    } else if (n > 6 && !memcmp(a, "error:", 6)) {
+        pk_sim_job_note_error(j, fifo_pop(j), code_after(a, n));
+    } else if (n > 6 && !memcmp(a, "ALARM:", 6)) {
+        if (j->alarms == 0u) {
+            j->alarm = -code_after(a, n);
+            snprintf(j->alarm_text, sizeof j->alarm_text, "Grbl ALARM:%d", code_after(a, n));
+        }
+        j->alarms++;
+    } else if (n == 13 && !memcmp(a, "[MSG:Pgm End]", 13)) {
         j->input_done = 1; /* M2/M30: the rest of the file is not run */
     }
 }
 
-static void feed(struct pk_sim_job *j)
+static int job_write(void *ctx, const uint8_t *buf, size_t len)
 {
-    for (;;) {
-        if (j->bez_active) {
-            if (pk_machine_room(j->m) == 0u)
-                return;
-            pk_um_t q[2], to[PK_AXES];
-            if (!pk_bez_next(&j->bez, q)) {
-                j->bez_active = 0;
-                continue;
-            }
-            for (int i = 0; i < PK_AXES; i++)
-                to[i] = j->cur[i];
-            to[0] = q[0];
-            to[1] = q[1];
-            (void)request_move(j, to, j->bez_feed, 0);
-            continue;
+    struct pk_sim_job *j = ctx;
+    for (size_t i = 0; i < len; i++) {
+        char c = (char)buf[i];
+        if (c == '\r' || c == '\n') {
+            if (j->ans_n)
+                answer_line(j, j->ans, j->ans_n < sizeof j->ans ? j->ans_n : sizeof j->ans);
+            j->ans_n = 0;
+        } else if (j->ans_n < sizeof j->ans) {
+            j->ans[j->ans_n++] = c;
+        } else {
+            j->ans_n = sizeof j->ans + 1u; /* too long: not an answer */
         }
-        if (j->input_done) {
-            if (!j->end_sent && pk_machine_room(j->m) > 0u && pk_machine_end(j->m) == PK_MOTION_OK)
-                j->end_sent = 1;
-            return;
-        }
-        if (pk_machine_room(j->m) < ROOM_PER_LINE)
-            return;
-        if (j->obs.room != NULL && j->obs.room(j->obs.arg) == 0u)
-            return; /* the observer is full: let the machine catch up */
-        const uint8_t *line;
-        size_t n;
-        if (!next_line(j, &line, &n)) {
-            j->input_done = 1;
-            continue;
-        }
-        j->lines++;
-        struct pk_gc_block b;
-        struct pk_gc_cmd c;
-        int rc = pk_gcode_parse(line, n, &b);
-        if (rc == PK_GC_OK)
-            rc = pk_gcode_interp(&j->gc, &b, &c);
-        if (rc != PK_GC_OK) {
-            gc_error(j, rc);
-            continue;
-        }
-        if (b.words & PK_GC_WBIT(PK_GC_W_S))
-            j->s_power = (double)b.v[PK_GC_W_S] / 1e6;
-        execute(j, &c);
     }
+    return (int)len;
+}
+
+/* ---- the job's machine ops: the adapter, recording the commanded path ----------- */
+
+/* A move the machine took: the job's idea of where the tool is. */
+static void took_move(struct pk_sim_job *j, const pk_um_t to[PK_AXES])
+{
+    memcpy(j->cur, to, sizeof j->cur);
+    j->move_requests++;
+}
+
+static struct pk_sim_job *job_of(void *ctx)
+{
+    return (struct pk_sim_job *)((char *)ctx - offsetof(struct pk_sim_job, gm));
+}
+
+static int jm_move(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, int rapid)
+{
+    struct pk_grbl_machine_ops o;
+    pk_grbl_motion_ops(&o);
+    int rc = o.move(ctx, t, feed, rapid);
+    if (rc == PK_GRBL_M_OK) {
+        pk_um_t p[PK_AXES];
+        memset(p, 0, sizeof p);
+        memcpy(p, t, sizeof(pk_um_t) * (PK_AXES < PK_GC_AXES ? PK_AXES : PK_GC_AXES));
+        took_move(job_of(ctx), p);
+    }
+    return rc;
+}
+
+static int jm_move_chord(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, pk_um_t err)
+{
+    struct pk_grbl_machine_ops o;
+    pk_grbl_motion_ops(&o);
+    int rc = o.move_chord(ctx, t, feed, err);
+    if (rc == PK_GRBL_M_OK) {
+        pk_um_t p[PK_AXES];
+        memset(p, 0, sizeof p);
+        memcpy(p, t, sizeof(pk_um_t) * (PK_AXES < PK_GC_AXES ? PK_AXES : PK_GC_AXES));
+        took_move(job_of(ctx), p);
+    }
+    return rc;
+}
+
+static int jm_pen(void *ctx, int down)
+{
+    struct pk_grbl_machine_ops o;
+    pk_grbl_motion_ops(&o);
+    int rc = o.pen(ctx, down);
+    if (rc == PK_GRBL_M_OK)
+        job_of(ctx)->pen = down != 0;
+    return rc;
+}
+
+static int jm_smoothing(void *ctx, int exact, pk_um_t tol)
+{
+    if (job_of(ctx)->cfg->force_smoothing)
+        return PK_GRBL_M_OK; /* --exact / --tolerance: the settings' policy stays */
+    struct pk_grbl_machine_ops o;
+    pk_grbl_motion_ops(&o);
+    return o.smoothing(ctx, exact, tol);
+}
+
+static int jm_reset(void *ctx)
+{
+    struct pk_sim_job *j = job_of(ctx);
+    struct pk_grbl_machine_ops o;
+    pk_grbl_motion_ops(&o);
+    int cut = o.reset(ctx);
+    pk_machine_position_um(j->m, j->cur);
+    return cut;
+}
+
+static void job_ops(struct pk_grbl_machine_ops *o)
+{
+    pk_grbl_motion_ops(o);
+    o->move = jm_move;
+    o->move_chord = jm_move_chord;
+    o->pen = jm_pen;
+    o->smoothing = jm_smoothing;
+    o->reset = jm_reset;
+}
+
+/* ---- the programmed path: the engine's primitives as exact ones ---------------------- */
+
+void pk_sim_prim_from_grbl(const struct pk_grbl_prim *g, const struct pk_pen_cfg *pen,
+                           struct pk_path_prim *out)
+{
+    double a[3] = { 0, 0, 0 }, b[3] = { 0, 0, 0 };
+    for (int i = 0; i < PK_GC_AXES && i < 3; i++) {
+        a[i] = (double)g->start[i];
+        b[i] = (double)g->end[i];
+    }
+    pk_path_line(out, a, b);
+    if (g->kind == PK_GRBL_PRIM_ARC) {
+        enum pk_path_plane pl = g->a0 == 2 ? PK_PLANE_ZX : g->a0 == 1 ? PK_PLANE_YZ : PK_PLANE_XY;
+        double centre[2] = { g->centre_q8[0] / 256.0, g->centre_q8[1] / 256.0 };
+        struct pk_path_prim arc;
+        if (pk_path_arc(&arc, a, b, centre, pl, g->cw, 0) == 0) {
+            /* the sweep the firmware flattens (binary angle: 2^32 a turn) */
+            double sw = (double)g->sweep * (6.283185307179586 / 4294967296.0);
+            arc.sweep = g->cw ? -sw : sw;
+            *out = arc;
+        }
+    } else if (g->kind == PK_GRBL_PRIM_CUBIC || g->kind == PK_GRBL_PRIM_QUAD) {
+        int n = g->kind == PK_GRBL_PRIM_QUAD ? 1 : 2;
+        out->kind = n == 1 ? PK_PATH_QUAD : PK_PATH_CUBIC;
+        for (int k = 0; k < n; k++) {
+            out->c[k][0] = (double)g->ctrl[k][0];
+            out->c[k][1] = (double)g->ctrl[k][1];
+            out->c[k][2] = a[2]; /* G5/G5.1 are XY curves */
+        }
+    }
+    int rapid = g->kind == PK_GRBL_PRIM_RAPID;
+    out->rapid = (uint8_t)rapid;
+    out->drawn = (uint8_t)pk_pen_prog_drawn(pen, g->tool_on, (double)g->spindle_s / 1000.0, rapid,
+                                            a[2], b[2]);
+}
+
+/* The engine's observer, with the source line of the engine's line. */
+static void job_observe(void *ctx, const struct pk_grbl_prim *g)
+{
+    struct pk_sim_job *j = ctx;
+    if (j->obs.on_prim != NULL) {
+        struct pk_path_prim p;
+        pk_sim_prim_from_grbl(g, &j->pen_cfg, &p);
+        uint32_t k = g->line; /* the engine's line number: 1 = the first one given */
+        size_t cap = sizeof j->lmap / sizeof j->lmap[0];
+        p.line = k > 0u && k <= j->eng_lines && j->eng_lines - (k - 1u) <= cap ? j->lmap[(k - 1u) % cap]
+                                                                                 : j->src_line;
+        j->obs.on_prim(j->obs.arg, &p);
+    }
+    if (j->raw_obs != NULL)
+        j->raw_obs(j->raw_obs_ctx, g);
+}
+
+/* ---- the job --------------------------------------------------------------------- */
+
+static void job_common(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg)
+{
+    memset(j, 0, sizeof *j);
+    j->m = m;
+    j->cfg = cfg;
+    pk_machine_position_um(m, j->cur);
+    pk_sim_cfg_pen(cfg, &j->pen_cfg);
+}
+
+static void job_start_engine(struct pk_sim_job *j)
+{
+    j->gm.m = j->m;
+    j->gm.hal = j->m->hal;
+    j->gm.ready = 1; /* the caller initialised the machine */
+    struct pk_grbl_settings set;
+    if (pk_sim_cfg_to_grbl(j->cfg, &set, NULL, 0) != 0)
+        pk_grbl_settings_default(&set);
+    j->gm.set = set;
+    memset(j->nvm_buf, 0xff, sizeof j->nvm_buf);
+    j->ram.buf = j->nvm_buf;
+    j->ram.size = sizeof j->nvm_buf;
+    struct pk_grbl_nvm nvm;
+    pk_grbl_ram_nvm(&j->ram, &nvm);
+    struct pk_grbl_stream io = { job_read, job_write, NULL, j };
+    struct pk_grbl_machine_ops ops;
+    job_ops(&ops);
+    if (pk_grbl_init(&j->g, &io, &ops, &j->gm, &set, &nvm) != 0) {
+        j->alarms = 1;
+        j->alarm = PK_ALARM_INTERNAL;
+        snprintf(j->alarm_text, sizeof j->alarm_text, "the settings were refused by the machine");
+        j->finished = 1;
+    }
+    pk_grbl_set_observer(&j->g, job_observe, j);
+    if (pk_grbl_state(&j->g) == PK_GRBL_ALARM) {
+        /* $22=1 locks at power-on: the operator unlocks it */
+        give(j, "$X", 2, 0);
+    }
+}
+
+/* Polyline detection: every non-blank line "x y" (at least one). */
+static int text_is_polyline(const char *t, size_t len)
+{
+    int any = 0;
+    for (size_t p = 0; p < len;) {
+        size_t n = 0;
+        while (p + n < len && t[p + n] != '\n')
+            n++;
+        double x, y;
+        int r = poly_line(t + p, n, &x, &y);
+        if (r < 0)
+            return 0;
+        any |= r;
+        p += n + 1u;
+    }
+    return any;
+}
+
+void pk_sim_job_init(struct pk_sim_job *j, struct pk_machine *m, const struct pk_sim_cfg *cfg,
+                     const char *text, size_t len)
+{
+    job_common(j, m, cfg);
+    j->text = text;
+    j->len = len;
+    j->file_size = len;
+    j->polyline = text_is_polyline(text, len);
+    if (j->polyline)
+        give(j, "G21 G90", 7, 0);
+    job_start_engine(j);
+}
+
+void pk_sim_job_set_observer(struct pk_sim_job *j, pk_grbl_observer_fn fn, void *ctx)
+{
+    j->raw_obs = fn;
+    j->raw_obs_ctx = ctx;
+}
+
+void pk_sim_job_free(struct pk_sim_job *j)
+{
+    (void)j; /* nothing on the heap: the path goes to the observer */
 }
 
 void pk_sim_job_poll_machine(struct pk_sim_job *j)
@@ -561,30 +805,49 @@ int pk_sim_job_main(void *arg, uint64_t now)
     struct pk_sim_job *j = arg;
     struct pk_machine *m = j->m;
 
+    if (j->finished)
+        return -1;
     if (pk_machine_state(m) == PK_STATE_ALARM) {
-        if (j->alarms == 0u) {
-            j->alarms = 1;
+        if (j->alarms == 0u || j->alarm < 0) {
             j->alarm = (int)pk_machine_alarm(m);
             snprintf(j->alarm_text, sizeof j->alarm_text, "%s", pk_hal_error_text(m->hal));
         }
+        if (j->alarms == 0u)
+            j->alarms = 1;
         j->finished = 1;
         return -1;
     }
-    feed(j);
+    pk_grbl_poll(&j->g);
+    int gs = pk_grbl_state(&j->g);
+    if (gs == PK_GRBL_HOLD0 && j->g.todo) {
+        /* M0: the operator presses cycle start */
+        (void)pk_grbl_rt_filter(&j->g, '~');
+        j->pauses++;
+    }
     pk_sim_job_poll_machine(j);
+    j->move_requests = j->g.stats.moves;
     if (j->progress != NULL && now >= j->next_progress_tick) {
         j->next_progress_tick = now + (uint64_t)j->cfg->tick_hz * 2u;
         fprintf(j->progress, "\rplotkin sim: line %lu (%.0f%% of the file read), %.1f s simulated ",
-                j->lines, j->len ? 100.0 * (double)j->pos / (double)j->len : 100.0,
+                j->lines, j->file_size ? 100.0 * (double)j->bytes_in / (double)j->file_size : 100.0,
                 (double)now / (double)j->cfg->tick_hz);
         fflush(j->progress);
     }
     if (pk_machine_state(m) == PK_STATE_ALARM)
         return pk_sim_job_main(arg, now);
-    if (j->end_sent && !j->bez_active && pk_machine_state(m) == PK_STATE_IDLE &&
-        pk_machine_queue_fill(m) == 0u) {
-        j->finished = 1;
+    if (j->alarms && gs == PK_GRBL_ALARM && pk_grbl_idle(&j->g) &&
+        pk_machine_state(m) == PK_STATE_IDLE) {
+        j->finished = 1; /* ALARM:2 / ALARM:3: locked until a reset nobody sends */
         return -1;
+    }
+    int fed_all = (j->input_done || (j->eof && j->lbuf_i >= j->lbuf_n && (!j->polyline || j->tail_done)));
+    if (fed_all && pk_grbl_idle(&j->g) && j->fifo_n == 0) {
+        if (!j->end_sent && pk_machine_room(m) > 0u && pk_machine_end(m) == PK_MOTION_OK)
+            j->end_sent = 1;
+        if (j->end_sent && pk_machine_state(m) == PK_STATE_IDLE && pk_machine_queue_fill(m) == 0u) {
+            j->finished = 1;
+            return -1;
+        }
     }
     return 1;
 }

@@ -16,6 +16,8 @@ const char *pk_sim_alarm_name(int a)
     case PK_ALARM_TIMER: return "timer start failed";
     case PK_ALARM_INTERNAL: return "internal error";
     case PK_ALARM_SPINDLE_WRITE: return "spindle write failed";
+    case PK_ALARM_HARD_LIMIT: return "hard limit";
+    case PK_ALARM_INPUT_READ: return "input read failed";
     default: return "none";
     }
 }

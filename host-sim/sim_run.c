@@ -207,6 +207,16 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
         r->setup_failed = 1;
         return -1;
     }
+    if (pk_sim_hw_inputs(&r->hw, o->inputs, o->n_inputs) != 0) {
+        snprintf(r->err, sizeof r->err, "an input that the board does not have, or too many");
+        r->setup_failed = 1;
+        return -1;
+    }
+    if (o->hard_limits && pk_machine_set_hard_limits(&r->m, true) != PK_MOTION_OK) {
+        snprintf(r->err, sizeof r->err, "hard limits: the board has no limit switch input");
+        r->setup_failed = 1;
+        return -1;
+    }
     sync_scale(r);
     pk_sim_job_init(&r->job, &r->m, c, o->program, o->len);
     r->job.progress = o->progress;

@@ -58,6 +58,9 @@ struct pk_sim_opts {
      *  pages behind go. */
     void (*input_read)(void *arg, size_t pos);
     void *input_arg;
+    const struct pk_sim_input *inputs; /**< scripted input edges and switches (sim_machine.h) */
+    size_t n_inputs;
+    int hard_limits;                /**< 1: hard limits on from the start ($21=1) */
 };
 
 struct pk_sim_result {

@@ -79,12 +79,45 @@ void pk_sim_sched_hal(struct pk_sim_sched *s, struct pk_hal *out)
     out->tick_hz = s->tick_hz;
 }
 
+void pk_sim_sched_set_irq(struct pk_sim_sched *s, pk_sim_irq_due_fn due, pk_sim_irq_fn run, void *arg)
+{
+    s->irq_due = due;
+    s->irq_run = run;
+    s->irq_arg = arg;
+}
+
+/* Run the other source's interrupts due at or before min(until, the timer's
+ * next tick). Returns 0, or -1 if it never stops asking at one tick. */
+static int run_irqs(struct pk_sim_sched *s, uint64_t until)
+{
+    if (s->irq_due == NULL)
+        return 0;
+    uint64_t lim = s->armed && s->due < until ? s->due : until;
+    for (uint32_t same = 0;; same++) {
+        uint64_t at = s->irq_due(s->irq_arg, s->now);
+        if (at > lim)
+            return 0;
+        if (same >= SAME_TICK_LIMIT)
+            return -1;
+        if (at > s->now)
+            s->now = at;
+        s->in_callback = 1;
+        s->irq_run(s->irq_arg, s->now);
+        s->in_callback = 0;
+        s->irqs++;
+    }
+}
+
 int pk_sim_sched_advance(struct pk_sim_sched *s, uint64_t until)
 {
     uint32_t same = 0;
     uint64_t last = UINT64_MAX;
 
-    while (s->armed && s->due <= until) {
+    for (;;) {
+        if (run_irqs(s, until) != 0)
+            return PK_SIM_RUN_RUNAWAY;
+        if (!(s->armed && s->due <= until))
+            break;
         s->now = s->due;
         same = s->now == last ? same + 1u : 0u;
         last = s->now;

@@ -14,6 +14,11 @@
  * one; a critical section (irq_save/irq_restore) is therefore always
  * honoured, and the scheduler checks that it is balanced.
  *
+ * A second source of interrupts (pk_sim_sched_set_irq: the GPIO chip's input
+ * edges) runs the same way: at its due tick, between timer callbacks (before
+ * a callback due at the same tick), never inside a callback or a main-loop
+ * iteration.
+ *
  * struct pk_sim_sched provides the "base" HAL members: timer, clock and
  * critical sections (pin members are NULL; the gpiod backend drives pins and
  * forwards the rest here). One instance per simulated machine.
@@ -30,6 +35,12 @@ enum pk_sim_main_status {
     PK_SIM_IDLE = 0,   /**< nothing to do until a timer callback has run */
     PK_SIM_BUSY = 1    /**< call again after main_period ticks */
 };
+
+/** Interrupt source: the tick its next interrupt is due (<= now: at once),
+ *  UINT64_MAX for none. */
+typedef uint64_t (*pk_sim_irq_due_fn)(void *arg, uint64_t now_ticks);
+/** Interrupt source: run the interrupt handler at now. */
+typedef void (*pk_sim_irq_fn)(void *arg, uint64_t now_ticks);
 
 /** One main-loop iteration at simulated time now; returns enum pk_sim_main_status. */
 typedef int (*pk_sim_main_fn)(void *arg, uint64_t now_ticks);
@@ -56,6 +67,11 @@ struct pk_sim_sched {
     uint8_t armed;
     uint8_t in_callback;
     uint32_t generation;       /**< bumped by start/stop, so a stop inside a callback sticks */
+    /* the other interrupt source (or NULL) */
+    pk_sim_irq_due_fn irq_due;
+    pk_sim_irq_fn irq_run;
+    void *irq_arg;
+    uint64_t irqs;             /**< its interrupts run */
     /* bookkeeping */
     uint32_t irq_depth;
     uint64_t callbacks;        /**< timer callbacks run */
@@ -66,6 +82,9 @@ struct pk_sim_sched {
 
 /** Initialise at tick 0. main_period and idle_period must be >= 1. */
 void pk_sim_sched_init(struct pk_sim_sched *s, uint32_t tick_hz, uint32_t main_period);
+
+/** Set the second interrupt source (due NULL: none). */
+void pk_sim_sched_set_irq(struct pk_sim_sched *s, pk_sim_irq_due_fn due, pk_sim_irq_fn run, void *arg);
 
 /** Fill *out with the base HAL of s (timer, clock, irq; no pins). */
 void pk_sim_sched_hal(struct pk_sim_sched *s, struct pk_hal *out);

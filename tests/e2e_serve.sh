@@ -124,14 +124,58 @@ if command -v socat >/dev/null; then
   "$BUILD/plotkin" serve --device "$tmp/nmA" --baud 115200 >"$tmp/dout" 2>&1 &
   srv=$!
   for _ in $(seq 100); do grep -q "at 115200 baud" "$tmp/dout" 2>/dev/null && break; sleep 0.05; done
-  got=$(printf 'G0 X3 Y2\n$I\n' | timeout 10 socat -t 1 - "FILE:$tmp/nmB,raw,echo=0" 2>&1)
+  got=$(printf 'G0 X3 Y2\nG4 P0\n$I\n' | timeout 10 socat -t 1 - "FILE:$tmp/nmB,raw,echo=0" 2>&1)
   kill -TERM "$srv"; wait "$srv"; rc=$?; srv=""
   kill "$nm" 2>/dev/null; wait "$nm" 2>/dev/null
-  if [[ $rc -eq 0 ]] && echo "$got" | grep -q '^\[OPT:,[0-9]*,128\]' && grep -q "position X3.000 Y2.000" "$tmp/dout"; then
+  if [[ $rc -eq 0 ]] && echo "$got" | grep -q '^\[OPT:VM,[0-9]*,128\]' && grep -q "position X3.000 Y2.000" "$tmp/dout"; then
     ok "serve --device speaks Grbl on a real tty in raw mode"
   else
     bad "serve --device speaks Grbl on a real tty in raw mode" "$got" "$(cat "$tmp/dout")"
   fi
+fi
+# --eeprom FILE: settings, offsets and startup lines survive a restart of
+# serve (the board's EEPROM on a host), and a damaged file is reset loudly.
+cat >"$tmp/ee.py" <<'PYEOF'
+import serial, sys, time
+s = serial.Serial(sys.argv[1], 115200, timeout=0.1)
+out = []
+def ask(l, t=5.0):
+    s.write((l + '\n').encode()); end = time.time() + t; b = b''
+    while time.time() < end:
+        b += s.read(256)
+        if b'ok\r\n' in b or b'error:' in b:
+            break
+    out.append(b.decode(errors='replace'))
+s.write(b'\x18')  # a reset: the greeting and the startup lines again
+time.sleep(0.5)
+out.append(s.read(4096).decode(errors='replace'))
+for l in sys.argv[2:]:
+    ask(l)
+print(''.join(out))
+PYEOF
+ee_run() { # FILE TTY LINES...: one serve session on the store FILE
+  local f=$1 t=$2; shift 2
+  "$BUILD/plotkin" serve --link "$t" --speed 20 --eeprom "$f" >/dev/null 2>&1 &
+  srv=$!
+  for _ in $(seq 200); do [[ -e $t ]] && break; sleep 0.05; done
+  timeout 30 $PY "$tmp/ee.py" "$t" "$@" 2>&1
+  kill -TERM "$srv"; wait "$srv"; srv=""
+}
+first=$(ee_run "$tmp/ee.bin" "$tmp/tty3" '$100=123.5' 'G10 L2 P2 X7' '$N0=G91')
+second=$(ee_run "$tmp/ee.bin" "$tmp/tty4" '$$' '$#' '$G')
+if [[ $(grep -c '^ok' <<<"$first") -eq 3 ]] &&
+   grep -q '^\$100=123.500' <<<"$second" && grep -q '^\[G55:7.000,0.000,0.000\]' <<<"$second" &&
+   grep -q '^>G91:ok' <<<"$second" && grep -q '^\[GC:G0 G54 G17 G21 G91 ' <<<"$second"; then
+  ok "serve --eeprom: settings, G55 and a startup line survive a restart"
+else
+  bad "serve --eeprom: settings, G55 and a startup line survive a restart" "$first" "$second"
+fi
+printf '\x5a' | dd of="$tmp/ee.bin" bs=1 seek=9 conv=notrunc 2>/dev/null  # $1's low byte
+third=$(ee_run "$tmp/ee.bin" "$tmp/tty5" '$$')
+if grep -q '^\$100=80.000' <<<"$third" && ! grep -q '^>G91' <<<"$third"; then
+  ok "serve --eeprom: a damaged settings record is reset to the defaults"
+else
+  bad "serve --eeprom: a damaged settings record is reset to the defaults" "$third"
 fi
 echo "$pass passed, $fail failed"
 [[ $fail -eq 0 ]]

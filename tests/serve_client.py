@@ -138,6 +138,8 @@ def main():
     blocks = int(opt[5:-1].split(",")[1])
     check("$I advertises the 128-byte receive buffer", opt.endswith(",128]"), opt)
     g.answer()
+    g.write(b"$10=3\n")  # Grbl's status mask: MPos and the Bf: buffer field
+    check("$10=3 asks for MPos and Bf as in Grbl", g.answer() == 0)
 
     # 1. 2,000 lines with character counting.
     lines, end = program(2000, 7)
@@ -220,38 +222,44 @@ def main():
     check("G-code is refused with error:9 until $X", locked == 9, locked)
 
     # 6. Bad input, each followed by a valid line that must run.
-    bad = [
+    bad = [  # Grbl 1.1h's answers (grbl-sim), plotkin's where it has more (15: range)
         (b"G1 X1 X2", 25), (b"G1 A5", 20), (b"G1 X", 2), (b"G1 X12345678901", 2),
-        (b"G0 X301", 15), (b"G0 Y-1", 15), (b"G1 X1 F-5", 4), (b"G0 G1 X1", 21),
-        (b"G1.5 X1", 23), (b"G4", 28), (b"N99999999 G0 X1", 27), (b"\x01\x02garbage\x7f", 1),
-        (b"G1 X1 \xfe\xff", 1), (b"G5 X1 Y1 P1 F100", 28), (b"G80 X1", 31), (b"G1 X1 P3 F10", 36),
-        (b"X" + b"1" * 300, 11), (b"$Q", 3), (b"$100=-1", 4), (b"T999", 38),
+        (b"G53 G0 X3000", 15), (b"G2 X1 Y1 R0.01 F100", 34), (b"G1 X1 F-5", 4), (b"G0 G1 X1", 24),
+        (b"G1.5 X1", 23), (b"G4", 28), (b"N99999999 G0 X1", 27), (b"\x01\x02garbage\x7f", 2),
+        (b"G1 X1 \xfe\xffE2", 20), (b"G5 X1 Y1 P1 F100", 28), (b"G80 X1", 31),
+        (b"G1 X1 P3 F10", 36), (b"X" + b"1" * 300, 11), (b"$Q", 2), (b"$100=-1", 4),
+        (b"T999", 38), (b"G2 X5 I1 F100", 33), (b"G10 L2 P9 X1", 29),
     ]
     ok_all, got = True, []
     for k, (line, err) in enumerate(bad):
+        if line.startswith(b"$"):  # $ commands want an idle machine (else error:8)
+            g.write(b"G4 P0\n")
+            g.answer()
         g.write(line + b"\n")
         a = g.answer()
         g.write(b"G0 X%d Y%d\n" % (k + 1, 2 * k + 1))
         b = g.answer()
         got.append((line[:20], a, b))
         ok_all &= a == err and b == 0
-    check("every bad line gets its own error:N and the next line is accepted", ok_all, got)
+    check("every bad line gets its own error:N and the next line is accepted", ok_all,
+          [x for x, (l, e) in zip(got, bad) if x[1] != e or x[2] != 0])
     st = g.wait_state({"Idle"}, 30)
     check("the valid lines between the bad ones all ran",
           near(mpos(st), (len(bad), 2 * len(bad) - 1, 0.0)), st)
 
     # 7a. A connected client that does not read for a while loses nothing
     # (an `ok` dropped here would hang a character-counting sender).
-    g.write(b"G0 X1 Y1\n$$\n")
+    g.write(b"G0 X1 Y1\nG4 P0\n$$\n")
     time.sleep(2.5)
     a = g.answer()
+    a2 = g.answer()
     listing, _ = g.wait_for(lambda l: l.startswith("$132="), 5)
     b = g.answer()
     check("a client that stops reading for 2.5 s still gets every answer",
-          a == 0 and b == 0 and listing.startswith("$132="), (a, listing, b))
+          a == 0 and a2 == 0 and b == 0 and listing.startswith("$132="), (a, listing, b))
 
     # 7. Disconnect without reading the answers, then reconnect.
-    g.write(b"G0 X3 Y4\n$$\n")
+    g.write(b"G0 X3 Y4\nG4 P0\n$$\n")
     time.sleep(0.05)
     g.close()
     time.sleep(2.5)  # serve drops output nobody read for a second
@@ -268,9 +276,125 @@ def main():
     check("a reconnecting client gets no stale answers and a live status",
           first.startswith("<Idle|") and near(mpos(first), (3.0, 4.0, 0.0)), got[:200])
 
+    grbl_sequences()
+
     passed = sum(results)
     print("%d passed, %d failed" % (passed, len(results) - passed))
     return 0 if passed == len(results) else 1
+
+
+def field(status, name):
+    m = re.search(r"\|" + name + r":([^|>]*)", status)
+    return m.group(1) if m else None
+
+
+def grbl_sequences():
+    """The byte sequences real senders write (issue 12), each checked on the
+    pty exactly as cncjs, UGS or stream.py send them."""
+    g = Grbl(PTY)
+    g.write(b"\x18")
+    g.wait_for(lambda l: l.startswith("Grbl "), 10)
+    g.write(b"$X\nG21 G90 G0 X0 Y0 Z0\nG4 P0\n")
+    g.answer(); g.answer(); g.answer()
+
+    # cncjs writes realtime bytes as UTF-8: 0x91 (feed +10 %) goes out as C2 91.
+    # Grbl drops the unknown C2; the next line must not fail.
+    g.write(b"\xc2\x91")
+    time.sleep(0.1)  # two clicks (flags: two presses before a poll count once, as in Grbl)
+    g.write(b"\xc2\x91G0 X1\n")
+    a = g.answer()
+    ovs = [field(g.status(), "Ov") for _ in range(12)]
+    ov = next((o for o in ovs if o), None)
+    check("UTF-8-wrapped overrides (C2 91 C2 91): no error, Ov: shows 120 %",
+          a == 0 and ov is not None and ov.startswith("120,"), (a, ovs))
+    g.write(b"\x90")  # feed override back to 100 %
+    time.sleep(0.05)
+
+    # cncjs "Stop": '!', then Ctrl-X 500 ms later when the hold is complete.
+    g.write(b"G1 X80 F600\n")
+    g.answer()
+    g.wait_state({"Run"}, 10)
+    g.write(b"!")
+    held = g.wait_state({"Hold:0"}, 20)
+    time.sleep(0.5)
+    g.write(b"\x18")
+    _, before = g.wait_for(lambda l: l.startswith("Grbl "), 10)
+    st = g.status()
+    check("'!' then Ctrl-X after Hold:0: Idle, no alarm",
+          st.startswith("<Idle|") and not any("ALARM" in l for l in before), (held, before, st))
+    g.write(b"G0 X2 Y2\nG4 P0\n")
+    a, b = g.answer(), g.answer()
+    st = g.status()
+    check("... and the next job runs", a == 0 and b == 0 and near(mpos(st), (2.0, 2.0, 0.0)), st)
+
+    # 256 Ctrl-X in one write: one reset.
+    g.write(b"\x18" * 256)
+    time.sleep(1.0)
+    g.write(b"?")
+    time.sleep(0.2)
+    data = g.s.read(g.s.in_waiting) + g.buf
+    g.buf = b""
+    check("256 Ctrl-X in one write: exactly one reset (one greeting)",
+          data.count(b"Grbl 1.1h") == 1 and b"ALARM" not in data, data[:300])
+
+    # A burst of '?' never drops a '!'.
+    g.write(b"G1 X60 F300\n")
+    g.answer()
+    g.wait_state({"Run"}, 10)
+    g.write(b"?" * 16 + b"!")
+    time.sleep(0.5)
+    burst = g.s.read(g.s.in_waiting) + g.buf  # the burst's own reports
+    g.buf = b""
+    st2 = g.wait_state({"Hold:0"}, 5)
+    check("'?' x16 then '!': the hold happens", st2.startswith("<Hold:0|"), (burst[-200:], st2))
+    g.write(b"\x18")
+    g.wait_for(lambda l: l.startswith("Grbl "), 10)
+    g.write(b"$X\n")
+    g.answer()
+
+    # Negative moves with Grbl's default $20=0 (no soft limits).
+    g.write(b"G90 G0 X0 Y0\nG4 P0\n$J=G91 X-10 F1000\n")
+    g.answer(); g.answer()
+    j = g.answer()
+    g.wait_state({"Idle"}, 20)
+    g.write(b"G0 X-5\nG92 X10\nG0 X0\nG4 P0\n")
+    r = [g.answer() for _ in range(4)]
+    st = g.status()
+    check("negative moves with $20=0: jog X-10, G0 X-5, G92 X10 then G0 X0 all run",
+          j == 0 and r == [0, 0, 0, 0] and near(mpos(st), (-15.0, 0.0, 0.0)), (j, r, st))
+
+    # WCO after the offset returns to zero: the report after the change has it.
+    g.write(b"G92.1\n")
+    g.answer()
+    wco = field(g.status(), "WCO")
+    check("WCO after the offset returns to zero: WCO:0.000,0.000,0.000 in the next report",
+          wco == "0.000,0.000,0.000", wco)
+
+    # G4 is answered after the queue has drained and the dwell has run.
+    g.write(b"G0 X5\nG4 P0.5\n")
+    g.answer()
+    g.answer()
+    st = g.status()
+    check("G4 is answered after the move and the dwell: the machine is idle at the target",
+          st.startswith("<Idle|") and near(mpos(st), (5.0, 0.0, 0.0)), st)
+    g.close()
+
+    # A client that disconnects mid-line: its half line is not glued to the
+    # next client's first line (cncjs/UGS reconnecting, a crashed script).
+    fd = os.open(PTY, os.O_RDWR | os.O_NOCTTY)
+    os.write(fd, b"G0 X1")
+    time.sleep(0.2)
+    os.close(fd)
+    time.sleep(1.5)
+    g = Grbl(PTY)
+    g.write(b"0 Y5\n")
+    a = g.answer()
+    g.write(b"G4 P0\n")
+    g.answer()
+    st = g.status()
+    check("a reconnect mid-line: '0 Y5' is its own line (error:1), the machine did not move",
+          a == 1 and near(mpos(st), (5.0, 0.0, 0.0)), (a, st))
+    g.close()
 
 
 if __name__ == "__main__":

@@ -1,10 +1,14 @@
 /*
  * test_bezier.c — G5/G5.1 flattening (firmware/pk_bezier.c) against a double
- * evaluation of the same curves: every densely sampled curve point must lie
- * within the tolerance (+ 1 µm of rounding) of the emitted polyline, and the
- * polyline must end exactly on the end point.
+ * evaluation of the same curves, with the bound pk_bezier.h states: every
+ * densely sampled curve point within the tolerance of the emitted polyline,
+ * every point of the polyline within the tolerance of the curve (measured
+ * against a 20,000-piece sampling of the curve, whose own error is below
+ * 0.05 µm for these curves, added to the bound), the vertices on the curve
+ * within 0.71 µm, the polyline ending exactly on the end point.
  */
 #include <math.h>
+#include <stddef.h>
 #include "th.h"
 #include "pk_bezier.h"
 
@@ -36,10 +40,14 @@ static double seg_dist(const double q[2], const double a[2], const double b[2])
     return sqrt(ex * ex + ey * ey);
 }
 
-/* Max distance from curve samples to the polyline; also returns the count. */
+#define DENSE 20000
+static double dense[DENSE + 1][2];
+
+/* Max distance from curve samples to the polyline and from polyline points
+ * to the curve; also returns the count and whether it ends exactly. */
 static double check_curve(const pk_um_t p[4][2], int quad, pk_um_t tol, int *count, int *end_ok)
 {
-    static double poly[5000][2];
+    static double poly[9000][2];
     struct pk_bez b;
     pk_bez_init(&b, p, quad, tol);
     int n = 0;
@@ -47,7 +55,7 @@ static double check_curve(const pk_um_t p[4][2], int quad, pk_um_t tol, int *cou
     poly[n][1] = p[0][1];
     n++;
     pk_um_t o[2];
-    while (n < 5000 && pk_bez_next(&b, o)) {
+    while (n < 9000 && pk_bez_next(&b, o)) {
         poly[n][0] = o[0];
         poly[n][1] = o[1];
         n++;
@@ -55,18 +63,50 @@ static double check_curve(const pk_um_t p[4][2], int quad, pk_um_t tol, int *cou
     int e = quad ? 2 : 3;
     *end_ok = poly[n - 1][0] == p[e][0] && poly[n - 1][1] == p[e][1];
     *count = n - 1;
+    for (int s = 0; s <= DENSE; s++)
+        eval(p, quad, (double)s / DENSE, dense[s]);
     double worst = 0;
-    for (int s = 0; s <= 4000; s++) {
-        double c[2];
-        eval(p, quad, s / 4000.0, c);
+    /* curve -> polyline (the curve piece of segment i lies between the
+     * samples nearest its end vertices, so search a window of segments) */
+    for (int s = 0; s <= DENSE; s += 5) {
         double best = 1e300;
         for (int i = 0; i + 1 < n; i++) {
-            double d = seg_dist(c, poly[i], poly[i + 1]);
+            double d = seg_dist(dense[s], poly[i], poly[i + 1]);
             if (d < best)
                 best = d;
         }
         if (best > worst)
             worst = best;
+    }
+    /* polyline -> curve: 9 points per segment, nearest dense piece */
+    size_t k = 0;
+    for (int i = 0; i + 1 < n; i++) {
+        for (int j = 0; j <= 8; j++) {
+            double q[2] = { poly[i][0] + (poly[i + 1][0] - poly[i][0]) * j / 8.0,
+                            poly[i][1] + (poly[i + 1][1] - poly[i][1]) * j / 8.0 };
+            double best = 1e300;
+            size_t bk = k;
+            /* near the previous match first; everywhere if that is far */
+            size_t lo = k > 300 ? k - 300 : 0, hi = k + 300 < DENSE ? k + 300 : DENSE;
+            for (int pass = 0; pass < 2; pass++) {
+                for (size_t c = lo; c < hi; c++) {
+                    double d = seg_dist(q, dense[c], dense[c + 1]);
+                    if (d < best) {
+                        best = d;
+                        bk = c;
+                    }
+                }
+                if (best <= 0.5)
+                    break;
+                lo = 0;
+                hi = DENSE;
+            }
+            k = bk;
+            if (best - 0.05 > worst)
+                worst = best - 0.05;
+            if (j == 0 && i > 0 && best > 0.7072 + 0.05)
+                *end_ok = 0; /* a vertex off the curve by more than its rounding */
+        }
     }
     return worst;
 }
@@ -74,7 +114,7 @@ static double check_curve(const pk_um_t p[4][2], int quad, pk_um_t tol, int *cou
 static void test_random_curves_stay_within_the_tolerance_and_end_exactly(void)
 {
     static const pk_um_t tols[] = { 1, 5, 20, 100 };
-    for (int k = 0; k < 60; k++) {
+    for (int k = 0; k < 24; k++) {
         pk_um_t p[4][2];
         int span = k % 3 == 0 ? 2000 : k % 3 == 1 ? 100000 : 2000000;
         for (int i = 0; i < 4; i++)
@@ -85,8 +125,8 @@ static void test_random_curves_stay_within_the_tolerance_and_end_exactly(void)
             int count, end_ok;
             double worst = check_curve(p, quad, tol, &count, &end_ok);
             TH_EXPECT(end_ok);
-            TH_EXPECT(worst <= tol + 1.0);
-            TH_EXPECT(count >= 1 && count <= 4096);
+            TH_EXPECT(worst <= tol);
+            TH_EXPECT(count >= 1 && count <= 8192);
         }
     }
 }
@@ -102,7 +142,7 @@ static void test_a_straight_curve_is_one_segment_and_a_tighter_tolerance_gives_m
     double w1 = check_curve(arc, 0, 100, &c1, &end_ok);
     double w2 = check_curve(arc, 0, 10, &c2, &end_ok);
     TH_EXPECT(c2 > c1);
-    TH_EXPECT(w1 <= 101 && w2 <= 11);
+    TH_EXPECT(w1 <= 100 && w2 <= 10);
     /* A chord count near the ideal: for this ~50 mm bulge, sqrt scaling. */
     TH_EXPECT(c2 < 4 * c1);
 }

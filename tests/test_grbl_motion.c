@@ -37,10 +37,13 @@ static void start(void)
 {
     struct pk_grbl_settings set;
     pk_grbl_settings_default(&set);
-    set.v[PK_GRBL_S_STEPS_X] = set.v[PK_GRBL_S_STEPS_Y] = set.v[PK_GRBL_S_STEPS_Z] =
-        (pk_gc_u6_t)1000 * 1000000;
-    set.v[PK_GRBL_S_PEN_SETTLE_MS] = 0;
-    set.v[PK_GRBL_S_STEP_PULSE_US] = (pk_gc_u6_t)2 * 1000000; /* 100 k steps/s needs short pulses */
+    (void)pk_grbl_settings_apply(&set, "$100=1000");
+    (void)pk_grbl_settings_apply(&set, "$101=1000");
+    (void)pk_grbl_settings_apply(&set, "$102=1000");
+    (void)pk_grbl_settings_apply(&set, "$205=0");
+    (void)pk_grbl_settings_apply(&set, "$0=3"); /* 100 k steps/s needs short pulses */
+    (void)pk_grbl_settings_apply(&set, "$110=4000"); /* at 2000 steps/mm too: 133 k steps/s */
+    (void)pk_grbl_settings_apply(&set, "$111=4000");
     pk_grbl_sim_free(&S);
     TH_ASSERT_EQ(pk_grbl_sim_init(&S, 1000000, &set), 0);
     outn = 0;
@@ -196,6 +199,52 @@ static void test_a_steps_per_mm_change_keeps_the_step_position_like_grbl(void)
     TH_EXPECT(strncmp(st, "<Idle|MPos:21.000,4.000,0.000|", 30) == 0);
 }
 
+/* The issue's case: a steps/mm change that would put the position beyond
+ * the representable range is refused (never wrapped), and the next move runs
+ * at the configured rate, from where the machine really is. */
+static void test_a_steps_per_mm_change_that_cannot_keep_the_position_is_refused(void)
+{
+    start();
+    send("$110=600\n$100=10000\n");           /* 600 mm/min at 10000 steps/mm: 100 k steps/s */
+    TH_ASSERT(run_idle(5));
+    send("G21 G90 G0 X300\n");                /* 3,000,000 steps */
+    TH_ASSERT(run_idle(40));
+    outn = 0;
+    out[0] = 0;
+    send("$100=1\n");                         /* would be 3,000,000 mm */
+    TH_ASSERT(run_idle(5));
+    TH_EXPECT(strstr(out, "error:3") != NULL);
+    char st[256];
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:300.000,0.000,0.000|", 31) == 0);
+    /* 10 mm back at 600 mm/min: 1 s plus the ramps, never faster */
+    long t0 = 0;
+    send("G0 X290\n");
+    for (; t0 < 10 * 2000 && !machine_idle(); t0++)
+        step(1);
+    step(1);
+    for (; t0 < 10 * 2000 && !machine_idle(); t0++)
+        step(1);
+    TH_EXPECT(t0 >= 2000);                    /* >= 1 s simulated (0.5 ms per step) */
+    final_status(st, sizeof st);
+    TH_EXPECT(strncmp(st, "<Idle|MPos:290.000,0.000,0.000|", 31) == 0);
+}
+
+/* An arc program on the real machine ends exactly at the programmed point. */
+static void test_arcs_end_exactly_at_their_programmed_end(void)
+{
+    start();
+    send("G21 G90 G64 P0.02 G0 X50 Y50\nM3\n"
+         "G2 X60 Y50 I5 J0 F3000\nG3 X50 Y50 R5\nG2 X50 Y50 I-7.5 J2.25\n"
+         "G3 X43.21 Y58.765 Z1.5 R-9\nG18 G2 X50 Z0 I3.395 K-0.75\nG17 G91 G2 X-3 Y0 R1.5\n");
+    TH_ASSERT(run_idle(60));
+    TH_EXPECT_EQ(count(out, "error"), 0);
+    char st[256];
+    final_status(st, sizeof st);
+    /* Z: the G18 arc's end is its start mirrored across the centre's Z */
+    TH_EXPECT(strstr(st, "MPos:47.000,58.765,0.000") != NULL || (th_print(st), 0));
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -206,6 +255,8 @@ int th_main(int argc, char **argv)
         TH_CASE(test_soft_reset_during_motion_leaves_no_queued_move),
         TH_CASE(test_jog_cancel_stops_short_without_alarm_and_g_code_runs_after),
         TH_CASE(test_a_steps_per_mm_change_keeps_the_step_position_like_grbl),
+        TH_CASE(test_a_steps_per_mm_change_that_cannot_keep_the_position_is_refused),
+        TH_CASE(test_arcs_end_exactly_at_their_programmed_end),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_grbl_sim_free(&S);

@@ -94,10 +94,11 @@ static void start(void)
 {
     struct pk_grbl_settings set;
     pk_grbl_settings_default(&set);
-    set.v[PK_GRBL_S_STEPS_X] = set.v[PK_GRBL_S_STEPS_Y] = set.v[PK_GRBL_S_STEPS_Z] =
-        (pk_gc_u6_t)1000 * 1000000;
-    set.v[PK_GRBL_S_PEN_SETTLE_MS] = 0;
-    set.v[PK_GRBL_S_STEP_PULSE_US] = (pk_gc_u6_t)2 * 1000000;
+    (void)pk_grbl_settings_apply(&set, "$100=1000");
+    (void)pk_grbl_settings_apply(&set, "$101=1000");
+    (void)pk_grbl_settings_apply(&set, "$102=1000");
+    (void)pk_grbl_settings_apply(&set, "$205=0");
+    (void)pk_grbl_settings_apply(&set, "$0=3");
     pk_grbl_sim_free(&S);
     pk_grbl_sim_init(&S, 1000000, &set);
     S.rec.record = 1; /* keep the pin log: the position is decoded from it */

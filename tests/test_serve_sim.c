@@ -17,7 +17,7 @@ static const char prog[] = "G21 G90\n"
                            "G64 P0.02\n"
                            "M3\n"
                            "G1 X10 Y0 F3000\n"
-                           "G1 X12.5 Y5 Q3\n" /* unknown word: error, nothing of it runs */
+                           "G1 X12.5 Y5 Q3\n" /* Q outside G5: error, nothing of it runs */
                            "G1 X12.5 Y5\n"
                            "G5 I2 J0 P-2 Q0 X20 Y7.25\n"
                            "M5\n"
@@ -71,7 +71,7 @@ static void test_a_program_sent_to_serve_ends_on_the_steps_plotkin_sim_decodes(v
     TH_ASSERT_EQ(s.r.job.lines, 9ul);
     TH_ASSERT_EQ(s.r.job.errors, 1ul);
     TH_ASSERT_EQ(s.r.job.err[0].line, 5u);
-    TH_ASSERT_EQ(s.r.job.err[0].code, 36); /* Grbl: value word left unused in the block */
+    TH_ASSERT_EQ(s.r.job.err[0].code, 20); /* Grbl: Q is no word of its own (error 20) */
     TH_ASSERT_EQ(ref.job.errors, 1ul);
     TH_ASSERT_EQ(ref.job.err[0].line, 5u);
     TH_ASSERT_EQ(s.r.job.alarms, 0ul);

@@ -335,7 +335,7 @@ static void test_the_board_loop_runs_the_same_job_on_real_time(void)
     pk_sim_default_board(&board, "e2e-board", 3);
     pk_trace_init(&tr, cfg.tick_hz);
     pk_trace_map_gpiod(&tr, &board);
-    pk_gpiod_mock_init(&chip, "e2e-board", 16);
+    pk_gpiod_mock_init(&chip, "e2e-board", 32); /* the default board has 19 lines */
     chip.clock = (pk_gpiod_mock_clock_fn)base.ops->clock_ticks;
     chip.clock_arg = &timer;
     chip.sink = pk_trace_sink;

@@ -78,13 +78,20 @@ static inline __attribute__((always_inline)) uint32_t ahead_of(uint32_t next_hi,
 }
 
 /* Write the compare register for next (more than LEAD ticks ahead). Returns
- * 1 if the compare will fire for it, 0 if the counter passed it meanwhile. */
+ * 1 if the compare will fire for it, 0 if the counter passed it meanwhile.
+ * (Interrupts off.) TIFR is never written here: a stale match flag costs at
+ * most one spurious interrupt (service checks the time before any callback),
+ * and simavr before 1.7 (Debian 12 ships 1.6) mishandles TIFR writes -- an
+ * OCF write clears a pending TOV (simavr issue #414, fixed by #441) -- which
+ * lost clock wraps, every later event 65,536 ticks late, under simavr. */
 static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a, uint32_t d)
 {
     uint16_t at = a->next_lo;
     PK_BOARD_STEP_OCR = at;
-    PK_BOARD_STEP_TIFR = _BV(PK_BOARD_STEP_OCF);
-    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 0;
+    /* at least 2 ticks left after the write: a compare written for the
+     * counter's current or next value may not fire until the next wrap (on
+     * simavr 1.6 at least, which then reschedules it a period later) */
+    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 1;
 }
 
 /* The compare interrupt (interrupts off on entry). The callback itself runs

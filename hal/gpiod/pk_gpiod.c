@@ -14,9 +14,10 @@
 #include "pk_gpiod.h"
 #include "pk_gpiod_port.h"
 
-enum { OP_NONE = 0, OP_CONFIG, OP_OPEN, OP_REQUEST, OP_SET };
+enum { OP_NONE = 0, OP_CONFIG, OP_OPEN, OP_REQUEST, OP_SET, OP_GET, OP_EVENTS };
 
-static const char *const group_name[PK_GPIOD_GROUPS] = { "step", "dir", "enable", "pen" };
+static const char *const group_name[PK_GPIOD_GROUPS + 1] = { "step", "dir", "enable", "pen",
+                                                             "input" };
 
 static void set_failure(struct pk_gpiod *g, int op, int group, int neg_errno)
 {
@@ -84,6 +85,56 @@ static int op_tool_write(void *ctx, uint32_t level)
     return group_write(ctx, PK_GPIOD_PEN, 1u, level & 1u);
 }
 
+static int op_input_read(void *ctx, uint32_t *raw)
+{
+    struct pk_gpiod *g = ctx;
+    int values[PK_IN_COUNT];
+    if (!g->opened || g->port.n_in == 0u)
+        return PK_HAL_EINVAL;
+    int rc = pk_gpiod_port_get_inputs(&g->port, values);
+    if (rc != 0) {
+        set_failure(g, OP_GET, PK_GPIOD_INPUT, rc);
+        return PK_HAL_EIO;
+    }
+    uint32_t r = 0;
+    for (unsigned i = 0; i < g->port.n_in; i++)
+        if (values[i])
+            r |= 1u << g->in_bit[i];
+    *raw = r;
+    return PK_HAL_OK;
+}
+
+static int op_input_watch(void *ctx, pk_hal_input_cb cb, void *arg)
+{
+    struct pk_gpiod *g = ctx;
+    if (!g->opened || g->port.n_in == 0u || !g->port.in_edges)
+        return PK_HAL_ENOSYS;
+    g->in_cb = cb;
+    g->in_arg = arg;
+    return PK_HAL_OK;
+}
+
+int pk_gpiod_input_service(struct pk_gpiod *g)
+{
+    if (!g->opened || g->port.n_in == 0u || !g->port.in_edges)
+        return 0;
+    int n = pk_gpiod_port_take_events(&g->port, 64u);
+    if (n < 0) {
+        set_failure(g, OP_EVENTS, PK_GPIOD_INPUT, n);
+        return PK_HAL_EIO;
+    }
+    if (n == 0)
+        return 0;
+    g->in_events += (uint32_t)n;
+    if (g->in_cb == NULL)
+        return n;
+    uint32_t raw;
+    if (op_input_read(g, &raw) != PK_HAL_OK)
+        return PK_HAL_EIO;
+    g->in_cb(g->in_arg, raw, g->base.ops->clock_ticks(g->base.ctx));
+    return n;
+}
+
 static int op_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_tick)
 {
     struct pk_gpiod *g = ctx;
@@ -145,6 +196,8 @@ static const struct pk_hal_ops gpiod_ops = {
     .dir_write = op_dir_write,
     .enable_write = op_enable_write,
     .tool_write = op_tool_write,
+    .input_read = op_input_read,
+    .input_watch = op_input_watch,
     .timer_start = op_timer_start,
     .timer_stop = op_timer_stop,
     .clock_ticks = op_clock_ticks,
@@ -155,9 +208,26 @@ static const struct pk_hal_ops gpiod_ops = {
     .error_text = op_error_text,
 };
 
-/* The lines of a group, in request order. */
+/* The input lines in request order (input bit order); bits[i]: the input of line i. */
+static unsigned input_offsets(const struct pk_gpiod_cfg *c, uint32_t *offs, uint8_t *bits)
+{
+    unsigned n = 0;
+    for (unsigned b = 0; b < PK_IN_COUNT; b++) {
+        if ((c->inputs >> b) & 1u) {
+            offs[n] = c->input[b];
+            if (bits != NULL)
+                bits[n] = (uint8_t)b;
+            n++;
+        }
+    }
+    return n;
+}
+
+/* The lines of a group, in request order (offs: room for PK_IN_COUNT). */
 static unsigned group_offsets(const struct pk_gpiod_cfg *c, enum pk_gpiod_group grp, uint32_t *offs)
 {
+    if ((int)grp == PK_GPIOD_INPUT)
+        return input_offsets(c, offs, NULL);
     switch (grp) {
     case PK_GPIOD_STEP:
         memcpy(offs, c->step, sizeof c->step);
@@ -217,7 +287,7 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
         return PK_HAL_EIO;
     }
     for (int grp = 0; grp < PK_GPIOD_GROUPS; grp++) {
-        uint32_t offs[PK_HAL_MAX_AXES];
+        uint32_t offs[PK_IN_COUNT];
         int init[PK_HAL_MAX_AXES];
         unsigned n = group_offsets(&g->cfg, (enum pk_gpiod_group)grp, offs);
         if (n == 0u)
@@ -234,6 +304,18 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
         }
         g->level[grp] = idle;
     }
+    if (g->cfg.inputs != 0u) {
+        uint32_t offs[PK_IN_COUNT];
+        unsigned n = input_offsets(&g->cfg, offs, g->in_bit);
+        const char *consumer = g->cfg.consumer[0] ? g->cfg.consumer : "plotkin";
+        rc = pk_gpiod_port_request_inputs(&g->port, offs, n, consumer, g->cfg.input_bias,
+                                          !g->cfg.input_no_edges);
+        if (rc != 0) {
+            set_failure(g, OP_REQUEST, PK_GPIOD_INPUT, rc);
+            pk_gpiod_port_close(&g->port);
+            return PK_HAL_EIO;
+        }
+    }
     g->opened = 1;
 
     uint32_t axes = ((uint32_t)1 << g->cfg.axes) - 1u;
@@ -246,6 +328,8 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
     out->enable_invert = g->cfg.enables == 1u ? ((g->cfg.enable_invert & 1u) ? axes : 0u)
                                               : (g->cfg.enable_invert & axes);
     out->tool_invert = g->cfg.pen_invert & 1u;
+    out->inputs = g->cfg.inputs;
+    out->input_invert = g->cfg.input_invert & g->cfg.inputs;
     return PK_HAL_OK;
 }
 
@@ -265,7 +349,7 @@ void pk_gpiod_close(struct pk_gpiod *g)
 
 const char *pk_gpiod_error_text(struct pk_gpiod *g)
 {
-    char lines[48];
+    char lines[64];
     size_t k = 0;
 
     if (g->err_op == OP_NONE)
@@ -274,7 +358,7 @@ const char *pk_gpiod_error_text(struct pk_gpiod *g)
         return g->err;
     lines[0] = '\0';
     if (g->err_op != OP_OPEN) {
-        uint32_t offs[PK_HAL_MAX_AXES];
+        uint32_t offs[PK_IN_COUNT];
         unsigned n = group_offsets(&g->cfg, (enum pk_gpiod_group)g->err_group, offs);
         for (unsigned i = 0; i < n && k < sizeof lines; i++) {
             int w = snprintf(lines + k, sizeof lines - k, "%s%u", i ? "," : " ", (unsigned)offs[i]);
@@ -287,8 +371,10 @@ const char *pk_gpiod_error_text(struct pk_gpiod *g)
         snprintf(g->err, sizeof g->err, "gpiod: open chip %s: %s", g->cfg.chip,
                  strerror(g->err_errno));
     } else {
+        static const char *const op_name[] = { "", "", "", "request", "set", "read",
+                                               "take events of" };
         snprintf(g->err, sizeof g->err, "gpiod: %s %s lines%s on %s: %s",
-                 g->err_op == OP_REQUEST ? "request" : "set", group_name[g->err_group],
+                 op_name[g->err_op], group_name[g->err_group],
                  lines, g->cfg.chip, strerror(g->err_errno));
     }
     return g->err;

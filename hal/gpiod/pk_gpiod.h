@@ -6,7 +6,16 @@
  * This backend opens the chip, requests the lines as outputs under a consumer
  * name (so `gpioinfo` shows who owns them), writes each group of lines (all
  * step lines, all direction lines, ...) in one bulk call, and releases
- * everything on close. Every libgpiod failure becomes PK_HAL_EIO, and the
+ * everything on close.
+ *
+ * Inputs (limit switches, probe, door, hold/resume/reset buttons) are lines
+ * of the same chip requested as inputs with both-edge events (or plain
+ * inputs, `input_edges 0`), with the configured bias. input_read reads them
+ * all in one bulk call; the edges are taken by pk_gpiod_input_service, which
+ * the board's loop calls (the POSIX timer loop between step callbacks, the
+ * simulator as an interrupt at the edge's tick): it drains the kernel's event
+ * queues without blocking and, if there were events, calls the core's edge
+ * callback once with the levels read after them. Every libgpiod failure becomes PK_HAL_EIO, and the
  * reason (which call, which lines, errno text) is kept for the firmware to
  * report through pk_hal_error_text().
  *
@@ -40,7 +49,8 @@ enum pk_gpiod_group {
     PK_GPIOD_DIR = 1,
     PK_GPIOD_ENABLE = 2,
     PK_GPIOD_PEN = 3,
-    PK_GPIOD_GROUPS = 4
+    PK_GPIOD_GROUPS = 4,
+    PK_GPIOD_INPUT = 4   /**< the input lines (requested apart, not an output group) */
 };
 
 #define PK_GPIOD_NAME_MAX 64     /**< chip descriptor and consumer, incl. NUL */
@@ -65,6 +75,12 @@ struct pk_gpiod_cfg {
     uint32_t dir_invert;              /**< axis mask: inverted direction lines */
     uint32_t enable_invert;           /**< axis mask: active-low enable lines */
     uint32_t pen_invert;              /**< 1: the pen line is active-low */
+    uint32_t input[PK_IN_COUNT];      /**< input line offset per enum pk_hal_input */
+    uint32_t inputs;                  /**< PK_IN_* bits wired (input[] valid for these) */
+    uint32_t input_invert;            /**< PK_IN_* bits whose line is active-low */
+    uint8_t input_bias;               /**< enum pk_gpiod_bias (pk_gpiod_port.h): 0 as is */
+    uint8_t input_no_edges;           /**< 1: plain inputs, no edge events (the core then
+                                           reads them at every step while it watches) */
 };
 
 /**
@@ -75,6 +91,9 @@ struct pk_gpiod_port {
     void *chip;                                   /**< library chip handle */
     void *line[PK_GPIOD_GROUPS][PK_HAL_MAX_AXES]; /**< library line handles (v1: struct gpiod_line *) */
     uint8_t n[PK_GPIOD_GROUPS];                   /**< lines requested per group; 0 = not requested */
+    void *in_line[PK_IN_COUNT];                   /**< input line handles, in request order */
+    uint8_t n_in;                                 /**< input lines requested (0: none) */
+    uint8_t in_edges;                             /**< 1: requested with edge events */
 };
 
 struct pk_gpiod {
@@ -88,6 +107,10 @@ struct pk_gpiod {
     uint8_t err_group;                /**< which group it concerned */
     uint32_t failures;                /**< libgpiod calls that failed since open */
     char err[PK_GPIOD_ERR_MAX];       /**< formatted by pk_gpiod_error_text */
+    uint8_t in_bit[PK_IN_COUNT];      /**< input request position -> enum pk_hal_input */
+    pk_hal_input_cb in_cb;            /**< the core's edge callback, or NULL */
+    void *in_arg;
+    uint32_t in_events;               /**< edge events taken since open */
 };
 
 /** Set cfg to "nothing configured": no axes, consumer "plotkin", chip "gpiochip0". */
@@ -107,6 +130,18 @@ void pk_gpiod_cfg_init(struct pk_gpiod_cfg *cfg);
  *     dir_invert_mask 0
  *     enable_invert 1         # 1: enable lines are active-low ($4)
  *     pen_invert 0
+ *     limit 5 6               # optional limit switch inputs, one per axis X [Y [Z [A]]]
+ *     probe 13                # optional inputs: probe, safety door, buttons
+ *     door 19
+ *     hold 20
+ *     resume 21
+ *     reset 16
+ *     limit_invert_mask 3     # axis mask: active-low limit switches
+ *     probe_invert 0          # 1: active-low probe
+ *     door_invert 0
+ *     button_invert 1         # 1: active-low hold/resume/reset buttons
+ *     input_bias pull-up      # pull-up, pull-down, disable or as-is (default)
+ *     input_edges 1           # 0: no edge events (polled inputs)
  *
  * Keys not given keep their value in *cfg, so pk_gpiod_cfg_init first.
  * @param cfg   updated in place; on failure its content is unspecified
@@ -151,6 +186,17 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
  * Idempotent; safe after a failed open. Calling context: [MAIN].
  */
 void pk_gpiod_close(struct pk_gpiod *g);
+
+/**
+ * Take the pending input edge events (without blocking) and, if there were
+ * any, call the registered edge callback once with the levels read after
+ * them. The board's edge context: the POSIX loop calls it between step
+ * callbacks, the simulator at the tick of an edge; never while a step
+ * callback runs. Returns the events taken (0: none), or PK_HAL_EIO (reason in
+ * pk_gpiod_error_text): the inputs are then not watched any more, which the
+ * caller must treat as an alarm.
+ */
+int pk_gpiod_input_service(struct pk_gpiod *g);
 
 /**
  * Text describing the last failure ("" if none), e.g.

@@ -34,7 +34,7 @@ static int fail(char *err, size_t errlen, unsigned line, const char *fmt, ...)
 
 int pk_gpiod_cfg_check(const struct pk_gpiod_cfg *c, char *err, size_t errlen)
 {
-    uint32_t used[PK_HAL_MAX_AXES * 3 + 1];
+    uint32_t used[PK_HAL_MAX_AXES * 3 + 1 + PK_IN_COUNT];
     unsigned nu = 0;
 
     if (c->chip[0] == '\0')
@@ -48,6 +48,12 @@ int pk_gpiod_cfg_check(const struct pk_gpiod_cfg *c, char *err, size_t errlen)
     uint32_t axes = ((uint32_t)1 << c->axes) - 1u;
     if ((c->step_invert & ~axes) != 0u || (c->dir_invert & ~axes) != 0u)
         return fail(err, errlen, 0, "gpiod config: invert mask names an axis without lines");
+    if ((c->inputs & ~(uint32_t)PK_IN_ALL) != 0u || (c->inputs & PK_IN_LIMITS & ~axes) != 0u)
+        return fail(err, errlen, 0, "gpiod config: a limit input for an axis without lines");
+    if ((c->input_invert & ~c->inputs) != 0u)
+        return fail(err, errlen, 0, "gpiod config: input invert names an input that is not wired");
+    if (c->input_bias > 3u)
+        return fail(err, errlen, 0, "gpiod config: bad input bias");
     for (unsigned i = 0; i < c->axes; i++) {
         used[nu++] = c->step[i];
         used[nu++] = c->dir[i];
@@ -56,11 +62,24 @@ int pk_gpiod_cfg_check(const struct pk_gpiod_cfg *c, char *err, size_t errlen)
         used[nu++] = c->enable[i];
     if (c->has_pen)
         used[nu++] = c->pen;
+    for (unsigned b = 0; b < PK_IN_COUNT; b++)
+        if ((c->inputs >> b) & 1u)
+            used[nu++] = c->input[b];
     for (unsigned i = 0; i < nu; i++)
         for (unsigned j = i + 1; j < nu; j++)
             if (used[i] == used[j])
                 return fail(err, errlen, 0, "gpiod config: line %u is used twice", (unsigned)used[i]);
     return PK_HAL_OK;
+}
+
+/* The single-line input keys: their enum pk_hal_input, or -1. */
+static int input_key(const char *key)
+{
+    static const char *const names[] = { "probe", "door", "hold", "resume", "reset" };
+    for (unsigned i = 0; i < 5u; i++)
+        if (!strcmp(key, names[i]))
+            return PK_IN_PROBE + (int)i;
+    return -1;
 }
 
 /* Parse one unsigned number token; 1 on success. */
@@ -114,6 +133,16 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
         int is_text = !strcmp(key, "chip") || !strcmp(key, "consumer");
         if (nv == 0u)
             return fail(err, errlen, lineno, "'%s' needs a value", key);
+        if (!strcmp(key, "input_bias")) {
+            static const char *const bias[4] = { "as-is", "pull-up", "pull-down", "disable" };
+            unsigned b = 0;
+            while (b < 4u && (nv != 1u || strcmp(tok[1], bias[b]) != 0))
+                b++;
+            if (b == 4u)
+                return fail(err, errlen, lineno, "'input_bias' is pull-up, pull-down, disable or as-is");
+            cfg->input_bias = (uint8_t)b;
+            continue;
+        }
         if (is_text) {
             if (nv != 1u)
                 return fail(err, errlen, lineno, "'%s' takes one word", key);
@@ -139,6 +168,14 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
                 return fail(err, errlen, lineno, "'dir' lists %u lines, 'step' %u", ndir, nstep);
             if (nstep != 0u)
                 cfg->axes = (uint8_t)nstep;
+        } else if (!strcmp(key, "limit")) {
+            if (nv > PK_HAL_MAX_AXES)
+                return fail(err, errlen, lineno, "'limit': at most %d lines, one per axis", PK_HAL_MAX_AXES);
+            cfg->inputs &= ~(uint32_t)PK_IN_LIMITS;
+            for (unsigned i = 0; i < nv; i++) {
+                cfg->input[PK_IN_LIMIT_X + i] = v[i];
+                cfg->inputs |= 1u << (PK_IN_LIMIT_X + i);
+            }
         } else if (!strcmp(key, "enable")) {
             if (nv > PK_HAL_MAX_AXES)
                 return fail(err, errlen, lineno, "'enable': at most %d lines", PK_HAL_MAX_AXES);
@@ -150,6 +187,27 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
         } else if (!strcmp(key, "pen")) {
             cfg->pen = v[0];
             cfg->has_pen = 1;
+        } else if (input_key(key) >= 0) {
+            unsigned b = (unsigned)input_key(key);
+            cfg->input[b] = v[0];
+            cfg->inputs |= 1u << b;
+        } else if (!strcmp(key, "limit_invert_mask")) {
+            if (v[0] > PK_IN_LIMITS)
+                return fail(err, errlen, lineno, "'limit_invert_mask' is an axis mask 0..%u", PK_IN_LIMITS);
+            cfg->input_invert = (cfg->input_invert & ~(uint32_t)PK_IN_LIMITS) | v[0];
+        } else if (!strcmp(key, "probe_invert") || !strcmp(key, "door_invert")
+                   || !strcmp(key, "button_invert") || !strcmp(key, "input_edges")) {
+            if (v[0] > 1u)
+                return fail(err, errlen, lineno, "'%s' is 0 or 1", key);
+            uint32_t bits = key[0] == 'p' ? 1u << PK_IN_PROBE
+                            : key[0] == 'd' ? 1u << PK_IN_DOOR
+                            : (1u << PK_IN_HOLD) | (1u << PK_IN_RESUME) | (1u << PK_IN_RESET);
+            if (key[0] == 'i')
+                cfg->input_no_edges = v[0] ? 0u : 1u;
+            else if (v[0])
+                cfg->input_invert |= bits;
+            else
+                cfg->input_invert &= ~bits;
         } else if (!strcmp(key, "step_invert_mask")) {
             cfg->step_invert = v[0];
         } else if (!strcmp(key, "dir_invert_mask")) {
@@ -167,5 +225,7 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
     }
     if (ndir != 0u && nstep == 0u && cfg->axes == 0u)
         return fail(err, errlen, 0, "gpiod config: 'dir' given but no 'step' lines");
+    /* probe_invert, door_invert, button_invert may name lines not wired */
+    cfg->input_invert &= cfg->inputs | PK_IN_LIMITS;
     return pk_gpiod_cfg_check(cfg, err, errlen);
 }

@@ -88,6 +88,8 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
     for (;;) {
         if (stop != NULL && *stop)
             return 1;
+        if (p->irq_poll != NULL)
+            p->irq_poll(p->irq_arg);
         int st = main_fn(arg, op_clock_ticks(p));
         if (st < 0 && !p->armed)
             return 0;
@@ -95,6 +97,8 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
          * every millisecond. */
         uint64_t now = op_clock_ticks(p), until = now + ms;
         while (p->armed && now < until) {
+            if (p->irq_poll != NULL)
+                p->irq_poll(p->irq_arg);
             if (p->due > now) {
                 if (st <= 0 && p->due - now > ms) {
                     struct timespec nap = { 0, 200000 }; /* far away: doze 0.2 ms */

@@ -12,6 +12,11 @@
  *
  * It has the same main-function contract as the simulator's scheduler
  * (sim_sched.h), so the same job code runs on both.
+ *
+ * Edge sources (the gpiod backend's input events): an optional irq_poll
+ * function is called on every turn of the loop, before each due callback and
+ * while waiting for one, in the same thread, so it never runs inside a
+ * callback (hal.h's rule for the edge context).
  */
 #ifndef PLOTKIN_PK_POSIX_TIMER_H
 #define PLOTKIN_PK_POSIX_TIMER_H
@@ -29,6 +34,8 @@ struct pk_posix_timer {
     uint32_t generation;
     uint32_t irq_depth;
     uint64_t late_max;      /**< largest lateness of a callback seen, ticks */
+    void (*irq_poll)(void *arg); /**< optional edge source, see above (NULL: none) */
+    void *irq_arg;
 };
 
 /** Initialise with tick 0 = now. tick_hz 1..1e9. */

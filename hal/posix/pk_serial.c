@@ -50,6 +50,7 @@ static void init_struct(struct pk_serial *s)
     memset(s, 0, sizeof *s);
     s->fd = -1;
     s->slave_fd = -1;
+    s->rx_allow = -1;
 }
 
 int pk_serial_open(struct pk_serial *s, const char *path, uint32_t baud)
@@ -136,6 +137,8 @@ int pk_serial_pump(struct pk_serial *s, struct pk_uart *u)
      * (realtime bytes are claimed by the filter and take no room). */
     for (;;) {
         size_t room = pk_uart_rx_space(u);
+        if (s->rx_allow >= 0 && (size_t)s->rx_allow < room)
+            room = (size_t)s->rx_allow;
         if (room == 0)
             break;
         uint8_t buf[PK_UART_RX_SIZE];
@@ -152,6 +155,8 @@ int pk_serial_pump(struct pk_serial *s, struct pk_uart *u)
         for (ssize_t i = 0; i < n; i++)
             pk_uart_rx_push(u, buf[i]);
         s->rx_bytes += (uint64_t)n;
+        if (s->rx_allow > 0)
+            s->rx_allow -= (long)n;
     }
     /* Transmit: write what the kernel takes; keep the rest in our hands.
      * Peek first, consume only what was written. */
@@ -176,6 +181,14 @@ int pk_serial_pump(struct pk_serial *s, struct pk_uart *u)
             break;
     }
     return 0;
+}
+
+size_t pk_serial_pending(const struct pk_serial *s)
+{
+    int n = 0;
+    if (s->fd < 0 || ioctl(s->fd, FIONREAD, &n) != 0 || n < 0)
+        return 0;
+    return (size_t)n;
 }
 
 size_t pk_serial_unread(const struct pk_serial *s)

@@ -28,6 +28,8 @@ struct pk_serial {
     char link[256];      /**< symlink made by pk_serial_open_pty, or "" */
     uint64_t rx_bytes;   /**< bytes moved into the RX ring (or claimed as realtime) */
     uint64_t tx_bytes;   /**< bytes written to the fd */
+    long rx_allow;       /**< < 0: read freely; else bytes pk_serial_pump may still read
+                              (e.g. the bytes a client wrote before it went away) */
 };
 
 /**
@@ -52,6 +54,9 @@ int pk_serial_open_pty(struct pk_serial *s, const char *link);
  * @return 0, or -errno on an I/O error other than EAGAIN/EINTR
  */
 int pk_serial_pump(struct pk_serial *s, struct pk_uart *u);
+
+/** Bytes the peer wrote that have not been read yet (FIONREAD), 0 on error. */
+size_t pk_serial_pending(const struct pk_serial *s);
 
 /**
  * pty only: bytes we wrote that no client has read yet (the slave's input

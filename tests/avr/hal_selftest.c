@@ -46,6 +46,17 @@ static uint64_t step_cb(void *arg, uint64_t now)
     return now + PULSE_TICKS;
 }
 
+/* A 32-bit value the step interrupt writes, read whole: with interrupts on,
+ * the four byte loads can straddle a decrement (0x100 -> 0xFF reads as 0). */
+static uint32_t read_isr_u32(const volatile uint32_t *v)
+{
+    uint8_t sreg = SREG;
+    cli();
+    uint32_t x = *v;
+    SREG = sreg;
+    return x;
+}
+
 static void say(const char *s)
 {
     while (*s)
@@ -73,8 +84,8 @@ static void say_u32(uint32_t v, uint8_t min_digits)
 
 static void status(void)
 {
-    uint32_t s = steps_done; /* 100 steps/mm: 10 um per step */
-    say(steps_left ? "<Run|MPos:" : "<Idle|MPos:");
+    uint32_t s = read_isr_u32(&steps_done); /* 100 steps/mm: 10 um per step */
+    say(read_isr_u32(&steps_left) ? "<Run|MPos:" : "<Idle|MPos:");
     say_u32(s / 100u, 1);
     say(".");
     say_u32((s % 100u) * 10u, 3);
@@ -126,7 +137,7 @@ int main(void)
                 steps_left = k;
                 t_next = pk_avr_clock_ticks(&pk_avr_board) + PERIOD_TICKS;
                 (void)pk_avr_timer_start(&pk_avr_board, step_cb, NULL, t_next);
-                while (steps_left)
+                while (read_isr_u32(&steps_left))
                     ;
             }
         }

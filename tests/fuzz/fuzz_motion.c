@@ -276,7 +276,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     H.pulse_ticks = CFG.step_pulse_ticks;
     H.setup_ticks = CFG.dir_setup_ticks;
 
-    struct pk_hal hal = { &H_OPS, NULL, TICK_HZ, 0, 0, 0, 0 };
+    struct pk_hal hal = { .ops = &H_OPS, .ctx = NULL, .tick_hz = TICK_HZ };
     int rc = pk_machine_init(&MACH, &CFG, &hal);
     if (rc != PK_MOTION_OK) {
         if (getenv("FUZZ_MOTION_VERBOSE"))

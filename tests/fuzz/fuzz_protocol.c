@@ -189,8 +189,7 @@ static void m_run(unsigned n)
 /* ---- checks ----------------------------------------------------------------- */
 static int is_rt(uint8_t b)
 {
-    return b == '?' || b == '!' || b == '~' || b == 0x18 || b == 0x84 || b == 0x85 || b == 0x87 ||
-           (b >= 0x90 && b <= 0x9D) || b == 0xA0 || b == 0xA1;
+    return b == '?' || b == '!' || b == '~' || b == 0x18 || b >= 0x80; /* Grbl: all >= 0x80 */
 }
 
 static unsigned dropped; /* lines cut by a soft reset while being handed over */
@@ -201,7 +200,7 @@ static void poll_engine(void)
      * still being handed to the machine, or whose multi-line report ($$, $#,
      * ...) is still being written, then goes unanswered: the reset ends the
      * conversation and the sender restarts its count (Grbl's rule). */
-    if (G.rt_resets != G.rt_resets_seen && (G.cmd_todo != 0u || G.report != 0u)) {
+    if (G.rt[PK_GRBL_RT_RESET] && (G.todo != 0u || G.report != 0u)) {
         dropped++;
         M.moves_for[cur_line()] = 0;
         M.refused_for[cur_line()] = 0;
@@ -244,8 +243,8 @@ static void check_output(void)
             answers++;
             continue;
         }
-        int known = s[0] == '<' || s[0] == '[' || s[0] == '$' || (n > 6 && !memcmp(s, "ALARM:", 6)) ||
-                    (n > 5 && !memcmp(s, "Grbl ", 5));
+        int known = s[0] == '<' || s[0] == '[' || s[0] == '$' || s[0] == '>' ||
+                    (n > 6 && !memcmp(s, "ALARM:", 6)) || (n > 5 && !memcmp(s, "Grbl ", 5));
         if (!known)
             fprintf(stderr, "line: '%.*s'\n", (int)n, s);
         FZ_CHECK(known, "every output line is a known kind");
@@ -272,10 +271,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     M.pos[2] = 0;
     struct pk_grbl_stream io = { u_read, u_write, u_rx_used, 0 };
     static const struct pk_grbl_machine_ops mo = {
-        m_move, m_pen, m_dwell, m_smoothing, m_end, m_hold, m_resume, m_reset,
-        m_position, m_state, m_free, m_total, m_speed, m_configure
+        .move = m_move, .pen = m_pen, .dwell = m_dwell, .smoothing = m_smoothing, .end = m_end,
+        .hold = m_hold, .resume = m_resume, .reset = m_reset, .position_um = m_position,
+        .state = m_state, .blocks_free = m_free, .blocks_total = m_total, .speed_umpm = m_speed,
+        .configure = m_configure,
     };
-    FZ_CHECK(pk_grbl_init(&G, &io, &mo, &M, NULL) == 0, "init with default settings");
+    FZ_CHECK(pk_grbl_init(&G, &io, &mo, &M, NULL, NULL) == 0, "init with default settings");
 
     unsigned steps = 0;
     while (fz_more(&in) && steps++ < 20000u) {
@@ -330,6 +331,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (; spins < 100000u; spins++) {
         if (U.filter == 0 && M.held)
             m_resume(&M); /* without the filter '~' may sit behind a held line */
+        if (spins % 64u == 63u)
+            isr_byte('~'); /* an operator: cycle start after an M0 read while draining */
+        if (spins == 50000u && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP))
+            isr_byte(0x18); /* locked (a soft limit, $SLP): only a reset goes on */
         poll_engine();
         m_run(8);
         if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u)

@@ -31,6 +31,19 @@ static void on_signal(int sig)
     stop_requested = 1;
 }
 
+/* The loop's edge source: the input lines' events (limit switches, probe).
+ * A failing event read leaves the inputs unwatched: stop the run. */
+static int edges_failed;
+static void edge_poll(void *arg)
+{
+    struct pk_gpiod *g = arg;
+    if (!edges_failed && pk_gpiod_input_service(g) < 0) {
+        fprintf(stderr, "plotkin-gpiod: %s\n", pk_gpiod_error_text(g));
+        edges_failed = 1;
+        stop_requested = 1;
+    }
+}
+
 static char *slurp(const char *path)
 {
     FILE *f = fopen(path, "rb");
@@ -140,6 +153,8 @@ int main(int argc, char **argv)
         return 1;
     }
     int status = 0;
+    timer.irq_poll = edge_poll;
+    timer.irq_arg = &gpio;
     if (pk_machine_init(&m, &motion, &hal) != PK_MOTION_OK) {
         fprintf(stderr, "plotkin-gpiod: machine init failed: %s\n", pk_hal_error_text(&hal));
         status = 1;

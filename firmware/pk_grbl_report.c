@@ -1,0 +1,390 @@
+/*
+ * pk_grbl_report.c — everything the Grbl engine prints: numbers (fixed
+ * point, no printf), the realtime status report with Grbl 1.1h's fields and
+ * refresh schedule (report.c), and the multi-line reports $$ $# $G $I $N and
+ * the help line, emitted a line at a time as the output buffer has room.
+ */
+#include "pk_grbl_internal.h"
+
+#include <string.h>
+
+/* Grbl's config.h refresh counts */
+#define OVR_BUSY 20u
+#define OVR_IDLE 10u
+#define WCO_BUSY 30u
+#define WCO_IDLE 10u
+
+size_t pk_grbl_out_room(const struct pk_grbl *g) { return PK_GRBL_OUT_SIZE - g->out_len; }
+
+/* Callers check the room first (PK_GRBL_ANSWER_MAX per piece); a write that
+ * does not fit is cut rather than overrunning. */
+void pk_grbl_put(struct pk_grbl *g, const char *s, size_t n)
+{
+    size_t room = pk_grbl_out_room(g);
+    if (n > room)
+        n = room;
+    memcpy(g->out + g->out_len, s, n);
+    g->out_len = (uint16_t)(g->out_len + n);
+}
+
+void pk_grbl_puts(struct pk_grbl *g, const char *s) { pk_grbl_put(g, s, strlen(s)); }
+
+void pk_grbl_puts_rom(struct pk_grbl *g, const char *rom_s)
+{
+    size_t room = pk_grbl_out_room(g);
+    for (uint8_t c; room > 0 && (c = pk_rom_u8(rom_s)) != 0u; rom_s++, room--)
+        g->out[g->out_len++] = c;
+}
+
+void pk_grbl_put_u32(struct pk_grbl *g, uint32_t v)
+{
+    char b[10];
+    int n = 10;
+    do {
+        b[--n] = (char)('0' + v % 10u);
+        v /= 10u;
+    } while (v != 0);
+    pk_grbl_put(g, b + n, (size_t)(10 - n));
+}
+
+/* Reports are 32-bit throughout (no 64-bit helpers on AVR): every value
+ * printed is an int32 setting, a position within +-2 * PK_UM_MAX, a rate or
+ * a spindle speed. */
+void pk_grbl_put_fixed(struct pk_grbl *g, int32_t v, unsigned dec, unsigned pdec)
+{
+    uint32_t u = (uint32_t)v;
+    if (v < 0) {
+        PK_GRBL_PUTS(g, "-");
+        u = 0u - u;
+    }
+    uint32_t p = 1;
+    for (unsigned i = 0; i < dec; i++)
+        p *= 10u;
+    uint32_t fp = u % p;
+    pk_grbl_put_u32(g, u / p);
+    unsigned nd = dec;
+    while (nd > pdec && fp % 10u == 0u) {
+        fp /= 10u;
+        nd--;
+    }
+    if (nd == 0 && pdec == 0)
+        return;
+    char f[12];
+    unsigned total = nd > pdec ? nd : pdec;
+    for (unsigned i = nd; i < total; i++)
+        f[i] = '0';
+    for (unsigned i = nd; i > 0; i--) {
+        f[i - 1] = (char)('0' + fp % 10u);
+        fp /= 10u;
+    }
+    PK_GRBL_PUTS(g, ".");
+    pk_grbl_put(g, f, total);
+}
+
+static int inches(const struct pk_grbl *g) { return g->set.v[PK_GRBL_S_REPORT_INCHES] != 0; }
+
+/* x / d rounded half away from zero; d > 0 */
+static int32_t div_round(int32_t x, int32_t d)
+{
+    return x >= 0 ? (int32_t)(((uint32_t)x + (uint32_t)d / 2u) / (uint32_t)d)
+                  : -(int32_t)(((0u - (uint32_t)x) + (uint32_t)d / 2u) / (uint32_t)d);
+}
+
+void pk_grbl_put_len(struct pk_grbl *g, int32_t um)
+{
+    if (inches(g)) {
+        /* 1e-4 inch = um * 50 / 127; |um| <= 2 * PK_UM_MAX keeps um * 50 in range */
+        if (um > 40000000 || um < -40000000)
+            um = um > 0 ? 40000000 : -40000000;
+        pk_grbl_put_fixed(g, div_round(um * 50, 127), 4, 4);
+    } else {
+        pk_grbl_put_fixed(g, um, 3, 3);
+    }
+}
+
+void pk_grbl_put_axes(struct pk_grbl *g, const pk_um_t v[PK_GC_AXES])
+{
+    for (int a = 0; a < PK_GC_AXES; a++) {
+        if (a)
+            PK_GRBL_PUTS(g, ",");
+        pk_grbl_put_len(g, v[a]);
+    }
+}
+
+void pk_grbl_put_rate(struct pk_grbl *g, int32_t um_min)
+{
+    if (inches(g))
+        pk_grbl_put_fixed(g, div_round(um_min, 2540), 1, 1); /* 0.1 in/min */
+    else
+        pk_grbl_put_fixed(g, div_round(um_min, 1000), 0, 0);
+}
+
+int32_t pk_grbl_spindle_rpm_milli(const struct pk_grbl *g)
+{
+    if (g->gc.spindle == PK_GC_SPINDLE_OFF || g->gc.spindle_s <= 0)
+        return 0;
+    uint32_t sm = (uint32_t)g->gc.spindle_s, ovr = g->ovr_spindle;
+    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u; /* < 2^32 for any int32 S */
+    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    if (s == 0)
+        return 0;
+    if (mn >= mx || s >= mx)
+        return (int32_t)mx;
+    if (s <= mn)
+        return (int32_t)mn;
+    return (int32_t)s;
+}
+
+int pk_grbl_state(const struct pk_grbl *g)
+{
+    int st = pk_grbl_mstate(g);
+    if (g->mode == MODE_SLEEP)
+        return PK_GRBL_SLEEP;
+    if (st == PK_GRBL_M_ALARM || g->alarm)
+        return PK_GRBL_ALARM;
+    if (g->check_mode)
+        return PK_GRBL_CHECK;
+    if (g->jogging)
+        return PK_GRBL_JOG;
+    if (st == PK_GRBL_M_HOLDING)
+        return PK_GRBL_HOLD1;
+    if (st == PK_GRBL_M_HOLD || g->mode == MODE_IDLE_HOLD)
+        return PK_GRBL_HOLD0;
+    if (st == PK_GRBL_M_RUN)
+        return PK_GRBL_RUN;
+    return PK_GRBL_IDLE;
+}
+
+/* (switches, not tables of pointers: those would be relocated, writable data) */
+static const char *state_name(struct pk_grbl *g, int *busy)
+{
+    int s = pk_grbl_state(g);
+    /* Grbl's "busy" states refresh WCO/Ov more slowly */
+    *busy = s == PK_GRBL_RUN || s == PK_GRBL_HOLD0 || s == PK_GRBL_HOLD1 || s == PK_GRBL_JOG;
+    switch (s) {
+    case PK_GRBL_RUN: return PK_ROM_STR("Run");
+    case PK_GRBL_HOLD0: return PK_ROM_STR("Hold:0");
+    case PK_GRBL_HOLD1: return PK_ROM_STR("Hold:1");
+    case PK_GRBL_JOG: return PK_ROM_STR("Jog");
+    case PK_GRBL_ALARM: return PK_ROM_STR("Alarm");
+    case PK_GRBL_CHECK: return PK_ROM_STR("Check");
+    case PK_GRBL_SLEEP: return PK_ROM_STR("Sleep");
+    default: return PK_ROM_STR("Idle");
+    }
+}
+
+static const char *motion_word(uint8_t m)
+{
+    switch (m) {
+    case PK_GC_MOT_RAPID: return PK_ROM_STR("G0");
+    case PK_GC_MOT_LINEAR: return PK_ROM_STR("G1");
+    case PK_GC_MOT_CW_ARC: return PK_ROM_STR("G2");
+    case PK_GC_MOT_CCW_ARC: return PK_ROM_STR("G3");
+    case PK_GC_MOT_CUBIC: return PK_ROM_STR("G5");
+    case PK_GC_MOT_QUAD: return PK_ROM_STR("G5.1");
+    case PK_GC_MOT_PROBE_TOWARD: return PK_ROM_STR("G38.2");
+    case PK_GC_MOT_PROBE_TOWARD_NO_ERROR: return PK_ROM_STR("G38.3");
+    case PK_GC_MOT_PROBE_AWAY: return PK_ROM_STR("G38.4");
+    case PK_GC_MOT_PROBE_AWAY_NO_ERROR: return PK_ROM_STR("G38.5");
+    default: return PK_ROM_STR("G80");
+    }
+}
+
+void pk_grbl_status_report(struct pk_grbl *g)
+{
+    /* the state first: a machine that is stopped (Idle, Hold:0) when asked
+     * is still stopped when its position is read after, so the two agree */
+    int busy;
+    const char *name = state_name(g, &busy);
+    pk_um_t pos[PK_GC_AXES], wco[PK_GC_AXES];
+    g->mo.position_um(g->m, pos);
+    for (unsigned a = 0; a < PK_GC_AXES; a++)
+        wco[a] = pk_gcode_wco(&g->gc, a);
+    PK_GRBL_PUTS(g, "<");
+    pk_grbl_puts_rom(g, name);
+    int32_t mask = g->set.v[PK_GRBL_S_REPORT_MASK];
+    if (mask & 1) {
+        PK_GRBL_PUTS(g, "|MPos:");
+    } else {
+        PK_GRBL_PUTS(g, "|WPos:");
+        for (unsigned a = 0; a < PK_GC_AXES; a++)
+            pos[a] -= wco[a];
+    }
+    pk_grbl_put_axes(g, pos);
+    if (mask & 2) {
+        PK_GRBL_PUTS(g, "|Bf:");
+        pk_grbl_put_u32(g, g->mo.blocks_free(g->m));
+        PK_GRBL_PUTS(g, ",");
+        size_t used = g->io.rx_used ? g->io.rx_used(g->io.ctx) : 0;
+        pk_grbl_put_u32(g, used >= PK_GRBL_RX_ADVERTISED ? 0u : (uint32_t)(PK_GRBL_RX_ADVERTISED - used));
+    }
+    PK_GRBL_PUTS(g, "|FS:");
+    pk_grbl_put_rate(g, g->mo.speed_umpm(g->m));
+    PK_GRBL_PUTS(g, ",");
+    pk_grbl_put_fixed(g, pk_grbl_spindle_rpm_milli(g), 3, 0);
+    /* Grbl's schedule (report.c): WCO when its counter runs out, then Ov on
+     * the next report; both at once after a change (counter set to 0). */
+    if (g->wco_counter > 0) {
+        g->wco_counter--;
+    } else {
+        g->wco_counter = (uint8_t)((busy ? WCO_BUSY : WCO_IDLE) - 1u);
+        if (g->ovr_counter == 0)
+            g->ovr_counter = 1;
+        PK_GRBL_PUTS(g, "|WCO:");
+        pk_grbl_put_axes(g, wco);
+    }
+    if (g->ovr_counter > 0) {
+        g->ovr_counter--;
+    } else {
+        g->ovr_counter = (uint8_t)((busy ? OVR_BUSY : OVR_IDLE) - 1u);
+        PK_GRBL_PUTS(g, "|Ov:");
+        pk_grbl_put_u32(g, g->ovr_feed);
+        PK_GRBL_PUTS(g, ",");
+        pk_grbl_put_u32(g, g->ovr_rapid);
+        PK_GRBL_PUTS(g, ",");
+        pk_grbl_put_u32(g, g->ovr_spindle);
+        /* the output, as Grbl reads its pin: in laser mode it is off while
+         * the last value sent (G0, or S0) is 0 */
+        int sp = g->gc.spindle != PK_GC_SPINDLE_OFF &&
+                 !(g->set.v[PK_GRBL_S_LASER] && g->laser_sent <= 0);
+        if (sp || g->gc.coolant) {
+            PK_GRBL_PUTS(g, "|A:");
+            if (sp)
+                pk_grbl_puts_rom(g, g->gc.spindle == PK_GC_SPINDLE_CCW ? PK_ROM_STR("C") : PK_ROM_STR("S"));
+            if (g->gc.coolant & PK_GC_COOLANT_FLOOD)
+                PK_GRBL_PUTS(g, "F");
+            if (g->gc.coolant & PK_GC_COOLANT_MIST)
+                PK_GRBL_PUTS(g, "M");
+        }
+    }
+    PK_GRBL_PUTS(g, ">\r\n");
+}
+
+/* ---- multi-line reports ---------------------------------------------------------- */
+
+static void gstate(struct pk_grbl *g)
+{
+    const struct pk_gc_state *s = &g->gc;
+    PK_GRBL_PUTS(g, "[GC:");
+    pk_grbl_puts_rom(g, motion_word(s->motion));
+    PK_GRBL_PUTS(g, " G");
+    pk_grbl_put_u32(g, 54u + s->wcs);
+    PK_GRBL_PUTS(g, " G");
+    pk_grbl_put_u32(g, 17u + s->plane);
+    pk_grbl_puts_rom(g, s->units == PK_GC_INCH ? PK_ROM_STR(" G20") : PK_ROM_STR(" G21"));
+    pk_grbl_puts_rom(g, s->distance == PK_GC_INCREMENTAL ? PK_ROM_STR(" G91") : PK_ROM_STR(" G90"));
+    pk_grbl_puts_rom(g, s->feedmode == PK_GC_INVERSE_TIME ? PK_ROM_STR(" G93") : PK_ROM_STR(" G94"));
+    pk_grbl_puts_rom(g, s->path == PK_GC_PATH_EXACT ? PK_ROM_STR(" G61") : PK_ROM_STR(" G64"));
+    pk_grbl_puts_rom(g, s->spindle == PK_GC_SPINDLE_CW    ? PK_ROM_STR(" M3")
+                        : s->spindle == PK_GC_SPINDLE_CCW ? PK_ROM_STR(" M4")
+                                                          : PK_ROM_STR(" M5"));
+    if (s->coolant) {
+        if (s->coolant & PK_GC_COOLANT_MIST)
+            PK_GRBL_PUTS(g, " M7");
+        if (s->coolant & PK_GC_COOLANT_FLOOD)
+            PK_GRBL_PUTS(g, " M8");
+    } else {
+        PK_GRBL_PUTS(g, " M9");
+    }
+    PK_GRBL_PUTS(g, " T");
+    pk_grbl_put_u32(g, s->tool);
+    PK_GRBL_PUTS(g, " F");
+    if (s->feedmode == PK_GC_INVERSE_TIME)
+        pk_grbl_put_fixed(g, div_round(s->feed, 1000), 0, 0);
+    else
+        pk_grbl_put_rate(g, s->feed);
+    PK_GRBL_PUTS(g, " S");
+    pk_grbl_put_fixed(g, div_round(s->spindle_s, 1000), 0, 0);
+    PK_GRBL_PUTS(g, "]\r\n");
+}
+
+/* One piece of a report; returns 1 when the report is complete. */
+static int report_piece(struct pk_grbl *g)
+{
+    switch (g->report) {
+    case R_SETTINGS: {
+        if (g->report_i >= PK_GRBL_S_COUNT)
+            return 1;
+        struct pk_grbl_setting_def d;
+        (void)pk_grbl_setting_def(g->report_i, &d);
+        PK_GRBL_PUTS(g, "$");
+        pk_grbl_put_u32(g, d.num);
+        PK_GRBL_PUTS(g, "=");
+        pk_grbl_put_fixed(g, g->set.v[g->report_i], d.dec, d.pdec);
+        PK_GRBL_PUTS(g, "\r\n");
+        g->report_i++;
+        return 0;
+    }
+    case R_OFFSETS: {
+        unsigned i = g->report_i++;
+        pk_um_t v[PK_GC_AXES];
+        if (i < PK_GC_COORD_COUNT) {
+            (void)pk_grbl_nvm_coord_read(g, i, v);
+            PK_GRBL_PUTS(g, "[G");
+            pk_grbl_put_u32(g, i == PK_GC_COORD_G28 ? 28u : i == PK_GC_COORD_G30 ? 30u : 54u + i);
+            PK_GRBL_PUTS(g, ":");
+            pk_grbl_put_axes(g, v);
+            PK_GRBL_PUTS(g, "]\r\n");
+        } else if (i == PK_GC_COORD_COUNT) {
+            PK_GRBL_PUTS(g, "[G92:");
+            pk_grbl_put_axes(g, g->gc.g92_um);
+            PK_GRBL_PUTS(g, "]\r\n[TLO:");
+            pk_grbl_put_len(g, g->gc.tlo_um);
+            PK_GRBL_PUTS(g, "]\r\n");
+        } else {
+            const pk_um_t zero[PK_GC_AXES] = { 0 }; /* a local: a zeroed const lands in .bss on AVR */
+            PK_GRBL_PUTS(g, "[PRB:");
+            pk_grbl_put_axes(g, zero);
+            PK_GRBL_PUTS(g, ":0]\r\n");
+            return 1;
+        }
+        return 0;
+    }
+    case R_INFO: {
+        uint8_t buf[PK_GRBL_LINE_MAX];
+        if (g->report_i++ == 0) {
+            unsigned n = pk_grbl_nvm_line_read(g, PK_GRBL_N_STARTUP, buf);
+            PK_GRBL_PUTS(g, "[VER:1.1h.plotkin-0.1:");
+            pk_grbl_put(g, (const char *)buf, n);
+            PK_GRBL_PUTS(g, "]\r\n");
+            return 0;
+        }
+        PK_GRBL_PUTS(g, "[OPT:VM,");
+        pk_grbl_put_u32(g, g->mo.blocks_total(g->m));
+        PK_GRBL_PUTS(g, ",");
+        pk_grbl_put_u32(g, PK_GRBL_RX_ADVERTISED);
+        PK_GRBL_PUTS(g, "]\r\n");
+        return 1;
+    }
+    case R_STARTUP: {
+        uint8_t buf[PK_GRBL_LINE_MAX];
+        unsigned k = g->report_i++;
+        unsigned n = pk_grbl_nvm_line_read(g, k, buf);
+        PK_GRBL_PUTS(g, "$N");
+        pk_grbl_put_u32(g, k);
+        PK_GRBL_PUTS(g, "=");
+        pk_grbl_put(g, (const char *)buf, n);
+        PK_GRBL_PUTS(g, "\r\n");
+        return g->report_i >= PK_GRBL_N_STARTUP;
+    }
+    case R_GSTATE:
+        gstate(g);
+        return 1;
+    case R_HELP:
+        PK_GRBL_PUTS(g, "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]\r\n");
+        return 1;
+    default:
+        return 1;
+    }
+}
+
+int pk_grbl_report_step(struct pk_grbl *g)
+{
+    while (pk_grbl_out_room(g) >= PK_GRBL_ANSWER_MAX) {
+        if (report_piece(g)) {
+            g->report = R_NONE;
+            return 1;
+        }
+    }
+    return 0;
+}
