@@ -9,12 +9,17 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # Two axes + pen. Smoothing in the tolerance mode only (PK_STROKE_FIXED=0:
 # \$200=1 is refused), whose kernel is Chaikin with clamped ends on open
 # strokes at PK_STROKE_TOL_DEPTH = 3 levels: the kernel's Chaikin-only build
-# (pk_refine_chaikin.c, 32-bit values at depth <= 5), no limit stage. Short
+# (pk_refine_chaikin.c), no limit stage. PK_MAX_DEPTH stays 6 (64-bit working
+# values): at PK_MAX_DEPTH <= 5 (32-bit values) a smoothed program of four
+# feed moves stalls the machine (tests/extra/board_refusals.sh runs one).
+# No G2/G3 arcs, no G5/G5.1 (error:20), Grbl's 79-byte line buffer of the
+# ATmega328P (a longer line is error:11) and its output staging; short
 # queues: see the size table of `make firmware`.
-BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=3 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+BOARD_DEFS  := -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
-               -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0
+               -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0 -DPK_BUILD_G5=0 -DPK_BUILD_ARCS=0 \
+               -DPK_GRBL_LINE_MAX=79 -DPK_GRBL_OUT_SIZE=150
 # Shared register save/restore sequences: about 5 % less flash, a few cycles
 # more per call of a function that saves many registers. -mstrict-X: pointer
 # arithmetic stays off the X register (it has no displacement addressing).
