@@ -47,7 +47,9 @@
  *
  * which is v^2 <= a / kappa on a polygon that follows a curve (kappa = the
  * turn over the chord). The sideways budget is isotropic, a share of the
- * smallest axis acceleration (PK_PLANNER_SIDE_Q15), and the blocks on either
+ * smallest acceleration among the axes the two blocks move (an axis that
+ * moves in neither gets no component of either acceleration: an XY curve
+ * is not held to Z's limit) (PK_PLANNER_SIDE_Q15), and the blocks on either
  * side of a junction where it can bind accelerate along the path with the
  * complementary share (PK_PLANNER_ALONG_Q15) only: per axis a_t u_i + a_n
  * n_i, u and n orthogonal, stays within sqrt(a_t^2 + a_n^2) <= accel_min. Grbl's junction
@@ -164,13 +166,37 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
     return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
 }
 
+static void dyn_of(pk_um_s2_t a_min, pk_um_t delta_um, struct pk_planner_dyn *d)
+{
+    d->a_min = a_min;
+    d->a_side = pk_mulshr_u32(a_min, PK_PLANNER_SIDE_Q15, 15); /* < a_min */
+    pk_um_s2_t along = pk_mulshr_u32(a_min, PK_PLANNER_ALONG_Q15, 15);
+    d->jump_um_s = pk_muldiv_u32(a_min - along, PK_PLANNER_KINK_MS, 1000u); /* < 2^27 */
+    d->delta_um = delta_um;
+}
+
 void pk_planner_dyn(const struct pk_planner_limits *lim, struct pk_planner_dyn *d)
 {
-    d->a_min = lim->accel_min;
-    d->a_side = pk_mulshr_u32(lim->accel_min, PK_PLANNER_SIDE_Q15, 15); /* < accel_min */
-    pk_um_s2_t along = pk_mulshr_u32(lim->accel_min, PK_PLANNER_ALONG_Q15, 15);
-    d->jump_um_s = pk_muldiv_u32(lim->accel_min - along, PK_PLANNER_KINK_MS, 1000u); /* < 2^27 */
-    d->delta_um = lim->junction_dev_um;
+    dyn_of(lim->accel_min, lim->junction_dev_um, d);
+}
+
+/* The smallest acceleration of the axes that either block moves. The turn's
+ * velocity change (u2 - u1) and both blocks' acceleration along u1 or u2
+ * have components on these axes only, so the isotropic budget needs no
+ * share of a still axis's limit (an XY curve is not held to Z's). */
+static pk_um_s2_t accel_min_moving(const struct pk_planner_limits *lim, const pk_q30_t u1[PK_AXES],
+                                   const pk_q30_t u2[PK_AXES])
+{
+    pk_um_s2_t a = lim->accel_min;
+    bool any = false;
+    for (unsigned i = 0; i < lim->axes; i++) {
+        if (u1[i] == 0 && u2[i] == 0)
+            continue;
+        if (!any || lim->accel[i] < a)
+            a = lim->accel[i];
+        any = true;
+    }
+    return a;
 }
 
 pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
@@ -249,9 +275,10 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
         struct pk_planner_dyn dyn;
-        pk_planner_dyn(&p->lim, &dyn);
+        const pk_um_s2_t a_turn = accel_min_moving(&p->lim, p->prev_u, u);
+        dyn_of(a_turn, p->lim.junction_dev_um, &dyn);
         const pk_um_s2_t side = dyn.a_side;
-        const pk_um_s2_t along = pk_mulshr_u32(p->lim.accel_min, PK_PLANNER_ALONG_Q15, 15);
+        const pk_um_s2_t along = pk_mulshr_u32(a_turn, PK_PLANNER_ALONG_Q15, 15);
         pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {

@@ -45,6 +45,8 @@ static const char sim_usage[] =
     "  --axes N         axes driven, 2 or 3 (default 3)\n"
     "  --exact          no smoothing (like G61); --tolerance MM: smoothing within MM;\n"
     "                   either overrides G61/G64 in the program\n"
+    "  --lower-bound    also print a lower bound on the motion time of any path within\n"
+    "                   the tolerance (host-sim/sim_bound.h: the model; dwells excluded)\n"
     "  --driver NAME    timing limits checked: drv8825 (default), a4988, tmc2209\n"
     "  --feed F         feed for polyline files, mm/min (default 3000)\n"
     "  --inject FAULT   make the mock GPIO chip fail: open, request:N (the Nth line\n"
@@ -188,6 +190,12 @@ static void print_json(FILE *f, const char *file, const struct pk_sim_result *r,
     fputs("],\n  \"final_mm\": ", f);
     json_arr_d(f, fmm, axes, "%.4f");
     fprintf(f, ",\n  \"sim_time_s\": %.6f", (double)r->ticks / hz);
+    if (r->opts.lower_bound) {
+        if (r->lower_bound_s >= 0.0)
+            fprintf(f, ",\n  \"lower_bound_s\": %.6f", r->lower_bound_s);
+        else
+            fputs(",\n  \"lower_bound_s\": null", f);
+    }
     json_rate(f, "max_speed_mm_s", r, axes, 0, 0);
     json_rate(f, "max_speed_proven_mm_s", r, axes, 0, 1);
     json_rate(f, "max_speed2_mm_s", r, axes, 1, 0);
@@ -323,7 +331,7 @@ int cmd_sim(int argc, char **argv)
     const char *file = NULL, *svg = NULL, *trace = NULL, *config = NULL, *driver = "drv8825";
     int json = 0, exact = 0, laser = 0;
     double tol = -1.0, feed = -1.0, svg_tol = 0.01, pen_z = NAN;
-    int axes_opt = 0, use_fault = 0, hard_limits = 0;
+    int axes_opt = 0, use_fault = 0, hard_limits = 0, lower_bound = 0;
     static struct pk_sim_inputs inputs;
     static struct pk_gpiod_mock fault;
     for (int i = 1; i < argc; i++) {
@@ -336,6 +344,8 @@ int cmd_sim(int argc, char **argv)
             json = 1;
         } else if (!strcmp(a, "--exact")) {
             exact = 1;
+        } else if (!strcmp(a, "--lower-bound")) {
+            lower_bound = 1;
         } else if (!strcmp(a, "--svg") && more) {
             svg = argv[++i];
         } else if (!strcmp(a, "--trace") && more) {
@@ -488,6 +498,7 @@ int cmd_sim(int argc, char **argv)
     o.inputs = inputs.in;
     o.n_inputs = inputs.n;
     o.hard_limits = hard_limits;
+    o.lower_bound = lower_bound;
     FILE *tf = NULL;
     if (trace != NULL) {
         tf = fopen(trace, "w");

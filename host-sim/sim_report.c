@@ -144,6 +144,11 @@ void pk_sim_print_summary(FILE *f, const struct pk_sim_result *r, unsigned axes,
         fprintf(f, "%c %lld steps = %.4f mm  ", axis_name[a], (long long)r->dec.pos[a],
                 pk_sim_steps_to_um(r, a, r->dec.pos[a]) / 1000.0);
     fprintf(f, "\n  simulated time    %.3f s\n", (double)r->ticks / hz);
+    if (r->opts.lower_bound && r->lower_bound_s > 0.0)
+        fprintf(f, "  lower bound       %.3f s (any path within the tolerance; this run %.3fx)\n",
+                r->lower_bound_s, (double)r->ticks / hz / r->lower_bound_s);
+    else if (r->opts.lower_bound)
+        fprintf(f, "  lower bound       not computed (%s)\n", r->lower_bound_s < 0.0 ? "out of memory" : "no motion");
     fprintf(f, "  max speed         ");
     per_axis(f, r, axes, 0, "%.1f", "mm/s");
     fprintf(f, "over any 16 steps\n  max step rate     ");

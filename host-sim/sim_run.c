@@ -106,6 +106,23 @@ static void on_prim(void *arg, const struct pk_path_prim *p)
         pk_svg_prim(r->opts.svg, p);
 }
 
+/* The engine's primitives, for the lower bound (sim_bound.h), with the
+ * tolerance the machine applies to them. */
+static void on_bound_prim(void *arg, const struct pk_grbl_prim *g)
+{
+    struct pk_sim_result *r = arg;
+    const struct pk_sim_cfg *c = r->opts.cfg;
+    struct pk_path_prim p;
+    pk_sim_prim_from_grbl(g, &r->pen, &p);
+    double tol;
+    if (c->force_smoothing)
+        tol = c->smooth_mode == 0u ? 0.0 : c->tolerance;
+    else
+        tol = g->exact ? 0.0 : (double)g->path_tol_um / 1000.0;
+    double feed = g->kind == PK_GRBL_PRIM_RAPID ? 0.0 : (double)g->feed_umpm / 60000.0;
+    pk_bound_prim(&r->bound, &p, feed, tol, g->tool_on != 0);
+}
+
 /*
  * Room in the programmed path's window. If there is none, the job waits and
  * the machine runs on, which releases primitives (sim_path.h). Should the
@@ -221,6 +238,21 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
     pk_sim_job_init(&r->job, &r->m, c, o->program, o->len);
     r->job.progress = o->progress;
     r->job.obs = (struct pk_sim_prim_obs){ on_prim, path_room, r };
+    r->lower_bound_s = -1.0;
+    if (o->lower_bound) {
+        struct pk_bound_cfg bc;
+        memset(&bc, 0, sizeof bc);
+        bc.axes = c->axes < 3u ? c->axes : 3u;
+        for (unsigned a = 0; a < 3u; a++) {
+            bc.vmax_mm_s[a] = c->max_rate[a] / 60.0;
+            bc.acc_mm_s2[a] = c->accel[a];
+        }
+        bc.junction_mm = c->junction_dev;
+        bc.tool_stops = r->pen.mode == PK_PEN_TOOL;
+        bc.settle_s = r->pen.mode == PK_PEN_TOOL ? c->pen_settle_ms / 1000.0 : 0.0;
+        pk_bound_init(&r->bound, &bc);
+        pk_sim_job_set_observer(&r->job, on_bound_prim, r);
+    }
     r->run_status = -1;
     return 0;
 }
@@ -287,6 +319,8 @@ int pk_sim_finish(struct pk_sim_result *r)
         r->ref_deviation_um = r->ref.st.max_um;
         r->ref_deviation_p95_um = pk_path_quantile(&r->ref, 0.95);
     }
+    if (r->opts.lower_bound)
+        r->lower_bound_s = pk_bound_finish(&r->bound);
     if (r->decoder.oom || r->hw.trace.oom) {
         snprintf(r->err, sizeof r->err, "out of memory recording the run");
         return -1;
@@ -313,6 +347,7 @@ void pk_sim_result_free(struct pk_sim_result *r)
     pk_decoded_free(&r->dec);
     pk_sim_job_free(&r->job);
     pk_path_free(&r->prog);
+    pk_bound_free(&r->bound);
     if (r->ref_on)
         pk_path_free(&r->ref);
     r->ref_on = 0;

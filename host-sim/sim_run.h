@@ -26,6 +26,7 @@
 #define PLOTKIN_SIM_RUN_H
 
 #include <stdio.h>
+#include "sim_bound.h"
 #include "sim_job.h"
 #include "sim_machine.h"
 #include "sim_path.h"
@@ -61,6 +62,8 @@ struct pk_sim_opts {
     const struct pk_sim_input *inputs; /**< scripted input edges and switches (sim_machine.h) */
     size_t n_inputs;
     int hard_limits;                /**< 1: hard limits on from the start ($21=1) */
+    int lower_bound;                /**< 1: compute lower_bound_s (sim_bound.h; memory grows
+                                         with the longest pen-down piece) */
 };
 
 struct pk_sim_result {
@@ -108,6 +111,8 @@ struct pk_sim_result {
     double deviation_p95_um;        /**< its 95th percentile (sim_path.h) */
     double ref_deviation_um;        /**< the same against ref (-1: not fed) */
     double ref_deviation_p95_um;
+    struct pk_bound bound;          /**< opts.lower_bound: the bound being collected */
+    double lower_bound_s;           /**< its result, s (-1: not computed or out of memory) */
 };
 
 /**

@@ -150,6 +150,7 @@ struct run_cfg {
     double tol_um;
     uint16_t sharp;
     double feed_mm_min;
+    double z_accel;          /* > 0: a third axis (Z, never moved) with this acceleration */
 };
 
 struct result {
@@ -170,6 +171,12 @@ static void run_one(const struct run_cfg *rc, struct result *res)
         c.steps_per_mm_q16[i] = q16(rc->spmm[i]);
         c.max_rate[i] = (pk_um_min_t)llround(rc->rate_mm_min * 1000.0);
         c.accel[i] = (pk_um_s2_t)llround(rc->accel * 1000.0);
+    }
+    if (rc->z_accel > 0) {
+        c.axes = 3;
+        c.steps_per_mm_q16[2] = q16(400);
+        c.max_rate[2] = (pk_um_min_t)llround(rc->rate_mm_min * 250.0);
+        c.accel[2] = (pk_um_s2_t)llround(rc->z_accel * 1000.0);
     }
     c.junction_dev_um = 0;
     c.step_pulse_ticks = 2;
@@ -382,6 +389,34 @@ static void test_the_executed_path_stays_within_the_tolerance_and_the_limits(voi
     TH_EXPECT_EQ(runs, NSHAPES * 3);
 }
 
+/* A third axis with a much lower acceleration that never moves (Grbl's
+ * default: Z) does not enter the budget of XY curves (pk_planner.c: the
+ * smallest acceleration of the axes the blocks move); the XY limits still
+ * hold on the pins. */
+static void test_a_still_slow_axis_leaves_the_xy_limits_kept(void)
+{
+    unsigned bad = 0;
+    const uint32_t seed0 = seed; /* the random walks of the next test stay the ones they were */
+    for (int s = 0; s < NSHAPES; s++) {
+        const char *name = shape(s);
+        struct run_cfg rc;
+        memset(&rc, 0, sizeof rc);
+        rc.spmm[0] = rc.spmm[1] = 80;
+        rc.rate_mm_min = 6000;
+        rc.accel = 1000;
+        rc.z_accel = 200;
+        rc.feed_mm_min = 12000;
+        rc.mode = s % 2 ? PK_SMOOTH_OFF : PK_SMOOTH_TOLERANCE;
+        rc.tol_um = 50;
+        rc.sharp = 60;
+        struct result r;
+        run_one(&rc, &r);
+        check(name, &rc, &r, &bad);
+    }
+    seed = seed0;
+    TH_EXPECT_EQ(bad, 0);
+}
+
 /* Issue 11's property: every smoothing mode, steps/mm from 1 to 400. */
 static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(void)
 {
@@ -442,6 +477,7 @@ int th_main(int argc, char **argv)
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_the_executed_path_stays_within_the_tolerance_and_the_limits),
+        TH_CASE(test_a_still_slow_axis_leaves_the_xy_limits_kept),
         TH_CASE(test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm),
         TH_CASE(test_one_micrometre_points_along_an_axis_run_at_the_feed_not_over_it),
     };

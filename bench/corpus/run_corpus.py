@@ -218,7 +218,7 @@ def shifted_box(box, shift):
 
 
 def run_sim(plotkin, program, cfg, mode, timeout):
-    args = [plotkin, "sim", program, "--json", "--config", cfg, "--axes", "3"]
+    args = [plotkin, "sim", program, "--json", "--lower-bound", "--config", cfg, "--axes", "3"]
     args += ["--exact"] if mode == "exact" else ["--tolerance", mode]
     t0 = time.monotonic()
     try:
@@ -326,7 +326,28 @@ def refused_word(text, code):
 PER_MODE_COLUMNS = [
     ("t", "s", "sim_time_s", "%.2f"),
     ("dev", "mm", "max_deviation_mm", "%.3f"),
+    ("lb", "s", "lower_bound_s", "%.2f"),
+    ("t/lb", "x", "_t_over_lb", "%.3f"),
+    ("gain", "%", "_gain_pct", "%+.1f"),
 ]
+
+
+def add_derived(results, modes):
+    """t/lb: plotkin's time over the lower bound of the same mode (sim_bound.h);
+    gain: how much faster than the first mode (--exact), percent."""
+    ref = modes[0]
+    for res in results:
+        r0 = res["modes"].get(ref, {})
+        for m in modes:
+            r = res["modes"][m]
+            if "_fail" in r:
+                continue
+            t, lb = r.get("sim_time_s"), r.get("lower_bound_s")
+            if t and lb:
+                r["_t_over_lb"] = t / lb
+            t0 = r0.get("sim_time_s") if "_fail" not in r0 else None
+            if t and t0:
+                r["_gain_pct"] = (t0 / t - 1.0) * 100.0
 
 
 def fmt_cell(r, key, fmt):
@@ -340,6 +361,7 @@ def fmt_cell(r, key, fmt):
 
 def report(results, args, skipped, wall):
     modes = args.modes
+    add_derived(results, modes)
     ref = modes[0]
     hdr = ["file", "cat", "origin", "clean", "errors (code:count)", "first refused"]
     for name, unit, _, _ in PER_MODE_COLUMNS:
@@ -395,6 +417,9 @@ def report(results, args, skipped, wall):
     print("plotkin corpus: %d files, modes %s, origin %s, plotkin %s" %
           (len(results), " ".join(modes), args.origin, args.plotkin))
     print("  t = simulated motion time (s, plotkin's clock); dev = max_deviation_mm as plotkin reports it;")
+    print("  lb = lower bound on the motion time of any path within the mode's tolerance")
+    print("       (plotkin sim --lower-bound, host-sim/sim_bound.h; exact: Grbl's junction model);")
+    print("  gain = how much faster than the first mode, percent;")
     print("  clean = finished with no G-code error, no alarm, no timing violation in every mode;")
     print("  errors list the first %s errors plotkin records (code:count), +N = further errors" %
           "32")
@@ -418,7 +443,10 @@ def report(results, args, skipped, wall):
     for m in modes:
         ok = [res for res in results if "_fail" not in res["modes"][m]]
         tot = sum(res["modes"][m]["sim_time_s"] for res in ok)
-        print("  total simulated time %-6s %10.1f s over %d files" % (m, tot, len(ok)))
+        lbs = [res["modes"][m].get("lower_bound_s") for res in ok]
+        lb = sum(x for x in lbs if x) if all(lbs) else None
+        print("  total simulated time %-6s %10.1f s over %d files%s" %
+              (m, tot, len(ok), "; lower bound %.1f s (x%.3f)" % (lb, tot / lb) if lb else ""))
     if refused:
         print("  refused (files whose first 32 errors include it):")
         for k, v in sorted(refused.items(), key=lambda kv: (-len(kv[1]), kv[0])):

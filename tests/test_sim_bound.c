@@ -1,0 +1,219 @@
+/*
+ * test_sim_bound.c — the lower bound on motion time (host-sim/sim_bound.h):
+ * its pieces against closed forms computed here, its corner rule against the
+ * geometry it claims (the widest circle inside the tolerance tube), and the
+ * bound against the firmware itself: a planner that beats a lower bound is
+ * faster than physics, or the bound is wrong — either is a bug.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "th.h"
+#include "sim_bound.h"
+#include "sim_run.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static const struct pk_timing_limits drv8825 = PK_TIMING_DRV8825;
+
+static struct pk_bound_cfg cfg_xy(double vmax, double acc)
+{
+    struct pk_bound_cfg c;
+    memset(&c, 0, sizeof c);
+    c.axes = 2;
+    c.vmax_mm_s[0] = c.vmax_mm_s[1] = vmax;
+    c.acc_mm_s2[0] = c.acc_mm_s2[1] = acc;
+    c.junction_mm = 0.01;
+    return c;
+}
+
+static void add_line(struct pk_bound *b, double x0, double y0, double x1, double y1, double feed, double tol)
+{
+    double a[3] = { x0 * 1000.0, y0 * 1000.0, 0 }, e[3] = { x1 * 1000.0, y1 * 1000.0, 0 };
+    struct pk_path_prim p;
+    pk_path_line(&p, a, e);
+    pk_bound_prim(b, &p, feed, tol, 1);
+}
+
+static void test_a_straight_move_is_its_trapezoid(void)
+{
+    struct pk_bound_cfg c = cfg_xy(100, 1000);
+    struct pk_bound b;
+    pk_bound_init(&b, &c);
+    add_line(&b, 0, 0, 100, 0, 50, 0.02);
+    /* accelerate 2.5 mm, cruise 95 mm, decelerate: 100/50 + 50/1000 */
+    TH_EXPECT(fabs(pk_bound_finish(&b) - 2.05) < 1e-9);
+    pk_bound_free(&b);
+    /* too short to reach the feed: a triangle, 2 sqrt(L/A) */
+    pk_bound_init(&b, &c);
+    add_line(&b, 0, 0, 1, 0, 50, 0.02);
+    TH_EXPECT(fabs(pk_bound_finish(&b) - 2.0 * sqrt(1.0 / 1000.0)) < 1e-9);
+    pk_bound_free(&b);
+    /* a diagonal: each axis carries 1/sqrt(2) of it, so the path may go
+     * sqrt(2) times faster and accelerate sqrt(2) times harder */
+    pk_bound_init(&b, &c);
+    add_line(&b, 0, 0, 100, 100, 0, 0.02);
+    double v = 100 * sqrt(2.0), A = 1000 * sqrt(2.0), L = 100 * sqrt(2.0);
+    TH_EXPECT(fabs(pk_bound_finish(&b) - (L / v + v / A)) < 1e-9);
+    pk_bound_free(&b);
+}
+
+static void test_a_square_slows_to_the_tube_circle_at_each_corner(void)
+{
+    struct pk_bound_cfg c = cfg_xy(100, 1000);
+    struct pk_bound b;
+    pk_bound_init(&b, &c);
+    add_line(&b, 0, 0, 100, 0, 50, 0.02);
+    add_line(&b, 100, 0, 100, 100, 50, 0.02);
+    add_line(&b, 100, 100, 0, 100, 50, 0.02);
+    add_line(&b, 0, 100, 0, 0, 50, 0.02);
+    /* a 90-degree turn: r = 2P / (1 - cos 45), the velocity change diagonal
+     * (each axis sees 1/sqrt(2) of the centripetal acceleration) */
+    double r = 2 * 0.02 / (1 - cos(M_PI / 4)), vc = sqrt(1000 * sqrt(2.0) * r);
+    double want = 2 * pk_bound_trapezoid_s(100, 0, vc, 50, 1000) + 2 * pk_bound_trapezoid_s(100, vc, vc, 50, 1000);
+    /* the trapezoid itself, by hand: from vc to 50 and back over 100 mm */
+    double t_mid = 2 * (50 - vc) / 1000 + (100 - 2 * (2500 - vc * vc) / 2000) / 50;
+    TH_EXPECT(fabs(pk_bound_trapezoid_s(100, vc, vc, 50, 1000) - t_mid) < 1e-12);
+    TH_EXPECT(fabs(pk_bound_finish(&b) - want) < 1e-9);
+    pk_bound_free(&b);
+}
+
+/* Distance from p to the two legs V + s u1, V + s u2 (s in [0, L]). */
+static double dist_legs(const double p[2], const double u1[2], const double u2[2], double L)
+{
+    double best = INFINITY;
+    const double *u[2] = { u1, u2 };
+    for (int k = 0; k < 2; k++) {
+        double s = p[0] * u[k][0] + p[1] * u[k][1];
+        s = s < 0 ? 0 : s > L ? L : s;
+        double d = hypot(p[0] - s * u[k][0], p[1] - s * u[k][1]);
+        if (d < best)
+            best = d;
+    }
+    return best;
+}
+
+/* The farthest a circle of radius r (tangent to both outer tube edges, so
+ * its centre on the inner bisector) strays from the legs over its turn. */
+static double circle_excess(double phi, double P, double r, double L)
+{
+    double h = phi / 2; /* legs from V = 0 at angles pi -/+ (pi - phi)/2 around the bisector -y */
+    double a = (M_PI - phi) / 2;
+    double u1[2] = { -sin(a), -cos(a) }, u2[2] = { sin(a), -cos(a) };
+    /* the centre at distance D below V on the bisector; tangent to the outer
+     * edges (the leg lines moved by P away from the centre): D sin(a) + P = r */
+    double D = (r - P) / sin(a);
+    double worst = 0;
+    for (int i = 0; i <= 20000; i++) {
+        double t = -h + phi * i / 20000.0; /* the turn: angles around the top of the circle */
+        double p[2] = { r * sin(t), -D + r * cos(t) };
+        double d = dist_legs(p, u1, u2, L);
+        if (d > worst)
+            worst = d;
+    }
+    return worst;
+}
+
+static void test_the_corner_circle_is_the_widest_inside_the_tube(void)
+{
+    const double P = 0.02;
+    const double phis[] = { 0.05, 0.38, M_PI / 4, M_PI / 2, 2.5, 3.1 };
+    for (unsigned k = 0; k < TH_COUNT(phis); k++) {
+        double phi = phis[k], r = pk_bound_corner_radius_mm(phi, P, 1e9, 1e9);
+        TH_EXPECT(fabs(r - 2 * P / (1 - cos(phi / 2))) < 1e-12 * r);
+        /* it stays within P (sampling), a 1 % wider one does not */
+        TH_EXPECT(circle_excess(phi, P, r, 1e9) <= P * (1 + 1e-6));
+        TH_EXPECT(circle_excess(phi, P, r * 1.01, 1e9) > P);
+    }
+    /* short legs: the turn takes at most half of the shorter one */
+    double r = pk_bound_corner_radius_mm(M_PI / 2, 1.0, 2.0, 3.0);
+    TH_EXPECT(fabs(r - 1.0) < 1e-12); /* 2 / (2 tan 45) */
+}
+
+static void test_a_dense_circle_runs_at_its_curvature_speed(void)
+{
+    /* R = 20 mm in 0.1 mm chords at a feed no axis limits: v = sqrt(A_c R),
+     * A_c between A (on an axis) and sqrt(2) A (diagonal) */
+    struct pk_bound_cfg c = cfg_xy(1000, 1000);
+    struct pk_bound b;
+    pk_bound_init(&b, &c);
+    const double R = 20;
+    int n = (int)(2 * M_PI * R / 0.1);
+    for (int i = 0; i < n; i++) {
+        double a0 = 2 * M_PI * i / n, a1 = 2 * M_PI * (i + 1) / n;
+        add_line(&b, R * cos(a0), R * sin(a0), R * cos(a1), R * sin(a1), 500, 0.01);
+    }
+    double t = pk_bound_finish(&b), L = 2 * M_PI * R;
+    TH_EXPECT(t > L / sqrt(1000 * sqrt(2.0) * R));
+    TH_EXPECT(t < L / sqrt(1000 * R) + 2 * sqrt(1000 * R) / 1000); /* + start and stop */
+    pk_bound_free(&b);
+}
+
+/* The firmware never beats the bound: plotkin sim, tolerance and exact. */
+static void check_firmware_not_faster(const char *chip, const char *prog, int exact, double tol)
+{
+    static struct pk_sim_cfg cfg;
+    static struct pk_sim_result r;
+    struct pk_sim_opts o;
+    pk_sim_cfg_default(&cfg);
+    cfg.axes = 2;
+    cfg.force_smoothing = 1;
+    cfg.smooth_mode = exact ? 0u : 2u;
+    if (!exact)
+        cfg.tolerance = tol;
+    memset(&o, 0, sizeof o);
+    o.chip = chip;
+    o.cfg = &cfg;
+    o.program = prog;
+    o.len = strlen(prog);
+    o.lim = drv8825;
+    o.lower_bound = 1;
+    if (pk_sim_run(&o, &r) != 0) {
+        th_fail(__FILE__, __LINE__, r.err);
+        pk_sim_result_free(&r);
+        return;
+    }
+    TH_EXPECT_EQ(r.run_status, PK_SIM_RUN_FINISHED);
+    double t = (double)r.ticks / cfg.tick_hz;
+    TH_EXPECT(r.lower_bound_s > 0.1);
+    if (!(r.lower_bound_s <= t)) {
+        char msg[200];
+        snprintf(msg, sizeof msg, "%s: plotkin %.4f s < bound %.4f s", chip, t, r.lower_bound_s);
+        th_fail(__FILE__, __LINE__, msg);
+    }
+    pk_sim_result_free(&r);
+}
+
+static void test_the_firmware_never_beats_the_bound(void)
+{
+    const char *corner = "G21 G90\nG0 X10 Y10\nM3\nG1 X110 Y10 F6000\nG1 X210 Y50\nM5\nM2\n";
+    const char *chamfer = "G21 G90\nG0 X10 Y10\nM3\nG1 X60 Y10 F6000\nG1 X70 Y20\nG1 X70 Y70\nM5\nM2\n";
+    static char circle[64 * 1024];
+    size_t k = (size_t)snprintf(circle, sizeof circle, "G21 G90\nG0 X60 Y40\nM3\n");
+    for (int i = 1; i <= 400; i++)
+        k += (size_t)snprintf(circle + k, sizeof circle - k, "G1 X%.4f Y%.4f F12000\n",
+                              40 + 20 * cos(2 * M_PI * i / 400), 40 + 20 * sin(2 * M_PI * i / 400));
+    snprintf(circle + k, sizeof circle - k, "M5\nM2\n");
+    check_firmware_not_faster("bound-corner-tol", corner, 0, 0.02);
+    check_firmware_not_faster("bound-corner-exact", corner, 1, 0);
+    check_firmware_not_faster("bound-chamfer-tol", chamfer, 0, 0.02);
+    check_firmware_not_faster("bound-circle-tol", circle, 0, 0.02);
+    check_firmware_not_faster("bound-circle-exact", circle, 1, 0);
+}
+
+int th_main(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    static const struct th_case cases[] = {
+        TH_CASE(test_a_straight_move_is_its_trapezoid),
+        TH_CASE(test_a_square_slows_to_the_tube_circle_at_each_corner),
+        TH_CASE(test_the_corner_circle_is_the_widest_inside_the_tube),
+        TH_CASE(test_a_dense_circle_runs_at_its_curvature_speed),
+        TH_CASE(test_the_firmware_never_beats_the_bound),
+    };
+    return th_run(cases, TH_COUNT(cases));
+}
