@@ -39,6 +39,7 @@ enum { GS_IDLE, GS_RUN, GS_HOLD, GS_JOG, GS_ALARM, GS_CHECK, GS_SLEEP };
 
 static void soft_reset(struct pk_grbl *g);
 static void run_pending(struct pk_grbl *g);
+static void home_failed(struct pk_grbl *g, int alarm);
 
 int pk_grbl_mstate(const struct pk_grbl *g) { return g->mo.state(g->m); }
 
@@ -197,10 +198,49 @@ static void overrides(struct pk_grbl *g)
     }
 }
 
+/* The buttons and the door input: Grbl's control pins set the same flags
+ * as their realtime bytes (reset, feed hold, cycle start, safety door). */
+static void input_events(struct pk_grbl *g)
+{
+    if (!PK_GRBL_INPUTS || !g->mo.inputs)
+        return;
+    uint32_t ev = g->mo.inputs(g->m, PK_GRBL_IN_EVENTS);
+    if (ev & PK_GRBL_IN_RESET)
+        g->rt[PK_GRBL_RT_RESET] = 1;
+    if (ev & PK_GRBL_IN_HOLD)
+        g->rt[PK_GRBL_RT_HOLD] = 1;
+    if (ev & PK_GRBL_IN_RESUME)
+        g->rt[PK_GRBL_RT_CYCLE] = 1;
+    if (ev & PK_GRBL_IN_DOOR)
+        g->rt[PK_GRBL_RT_DOOR] = 1;
+}
+
+/* The door input is open now (Grbl's system_check_safety_door_ajar). */
+static int door_ajar(struct pk_grbl *g)
+{
+    return PK_GRBL_INPUTS && g->mo.inputs &&
+           (g->mo.inputs(g->m, PK_GRBL_IN_LEVELS) & PK_GRBL_IN_DOOR) != 0u;
+}
+
 static void realtime(struct pk_grbl *g)
 {
+    input_events(g);
     if (take(g, PK_GRBL_RT_RESET)) {
-        soft_reset(g);
+        if (PK_GRBL_INPUTS && g->mode == MODE_HOMING) { /* Grbl: ALARM:6, $H answered, reset */
+            g->mo.home_abort(g->m, 6);
+            home_failed(g, 6);
+        } else {
+            soft_reset(g);
+        }
+        return;
+    }
+    if (PK_GRBL_INPUTS && g->mode == MODE_HOMING) { /* only '?' and the door act now */
+        if (take(g, PK_GRBL_RT_STATUS))
+            g->status_due = 1;
+        if (take(g, PK_GRBL_RT_DOOR)) {
+            g->mo.home_abort(g->m, 7);
+            home_failed(g, 7);
+        }
         return;
     }
     if (take(g, PK_GRBL_RT_STATUS))
@@ -210,7 +250,9 @@ static void realtime(struct pk_grbl *g)
      * held queue, so it is a feed hold, and the sender is told so */
     int door = take(g, PK_GRBL_RT_DOOR);
     if (door)
-        g->msg_due = MSG_DOOR_HOLD;
+        g->msg_due = PK_GRBL_INPUTS && g->mo.inputs &&
+                             (g->mo.inputs(g->m, PK_GRBL_IN_HAVE) & PK_GRBL_IN_DOOR)
+                         ? MSG_DOOR_OPEN : MSG_DOOR_HOLD;
     if ((take(g, PK_GRBL_RT_HOLD) || door) && gs != GS_ALARM && gs != GS_CHECK && gs != GS_SLEEP) {
         if (g->jogging) {
             g->mo.hold(g->m);
@@ -221,7 +263,7 @@ static void realtime(struct pk_grbl *g)
             g->mode = MODE_IDLE_HOLD; /* Grbl: a hold while idle is complete at once */
         }
     }
-    if (take(g, PK_GRBL_RT_CYCLE)) {
+    if (take(g, PK_GRBL_RT_CYCLE) && !door_ajar(g)) { /* Grbl: no resume while the door is open */
         if (g->mode == MODE_IDLE_HOLD && pk_grbl_mstate(g) == PK_GRBL_M_IDLE) {
             g->mode = MODE_RUN;
         } else if (pk_grbl_mstate(g) == PK_GRBL_M_HOLD && !g->jog_cancel) {
@@ -501,6 +543,80 @@ static int do_curve(struct pk_grbl *g)
     return 0;
 }
 
+/* "[PRB:x,y,z:ok]" (machine position, Grbl's report_probe_parameters). */
+static void put_prb(struct pk_grbl *g)
+{
+    PK_GRBL_PUTS(g, "[PRB:");
+    pk_grbl_put_axes(g, g->prb_um);
+    pk_grbl_puts_rom(g, g->probe_ok ? PK_ROM_STR(":1]\r\n") : PK_ROM_STR(":0]\r\n"));
+}
+
+/* A non-critical alarm raised by a line (ALARM:4, ALARM:5): the G-code lock
+ * until $X; the line itself is answered "ok", as Grbl. */
+static void raise_alarm(struct pk_grbl *g, uint8_t code)
+{
+    g->alarm = code;
+    PK_GRBL_PUTS(g, "ALARM:");
+    pk_grbl_put_u32(g, code);
+    PK_GRBL_PUTS(g, "\r\n");
+}
+
+/* G38.2-G38.5, as Grbl's mc_probe_cycle: sync, fail at once if the probe
+ * already is in the state waited for (ALARM:4), run the move, then record
+ * the contact (or the end for G38.3/.5; ALARM:5 for G38.2/.4), report
+ * [PRB:] and continue from where the machine stopped. */
+static int do_probe(struct pk_grbl *g)
+{
+    struct pk_gc_cmd *c = &g->cmd;
+    if (g->check_mode)
+        return 1;
+    unsigned away = c->motion >= PK_GC_MOT_PROBE_AWAY ? 1u : 0u;
+    unsigned no_error = ((c->motion - PK_GC_MOT_PROBE_TOWARD) & 1u) ? 1u : 0u;
+    if (!PK_GRBL_INPUTS || !g->mo.probe) {
+        PK_GRBL_PUTS(g, "[MSG:No probe input: G38 is not supported by this machine]\r\n");
+        return -PK_GC_E_UNSUPPORTED;
+    }
+    if (g->step < 2) {
+        int r = sync_wait(g);
+        if (r <= 0)
+            return r;
+        g->step = 2;
+    }
+    if (pk_grbl_out_room(g) < 64u)
+        return 0; /* room for the alarm and [PRB:] */
+    if (g->step == 2) {
+        int rc = g->mo.probe(g->m, c->target_um, c->feed_umpm, away | (no_error << 1));
+        if (rc == PK_GRBL_M_ENOTSUP) {
+            PK_GRBL_PUTS(g, "[MSG:No probe input: G38 is not supported by this machine]\r\n");
+            return -PK_GC_E_UNSUPPORTED;
+        }
+        if (rc == PK_GRBL_M_ETRIGGERED) {
+            g->probe_ok = 0;
+            raise_alarm(g, 4);
+            g->mo.position_um(g->m, g->gc.pos_um);
+            return 1;
+        }
+        int r = op_rc(rc);
+        if (r <= 0)
+            return r;
+        g->step = 3;
+    }
+    pk_um_t pos[PK_GC_AXES];
+    int res = g->mo.probe_result(g->m, pos);
+    if (res == PK_GRBL_PRB_RUNNING)
+        return 0;
+    g->probe_ok = res == PK_GRBL_PRB_CONTACT;
+    if (res == PK_GRBL_PRB_CONTACT || (res == PK_GRBL_PRB_MISSED && no_error))
+        memcpy(g->prb_um, pos, sizeof g->prb_um);
+    else if (res == PK_GRBL_PRB_MISSED)
+        raise_alarm(g, 5);
+    if (res != PK_GRBL_PRB_ABORTED)
+        put_prb(g);
+    g->mo.position_um(g->m, g->gc.pos_um); /* Grbl: gc_sync_position */
+    g->gc.cubic_prev = 0;
+    return 1;
+}
+
 static int do_move(struct pk_grbl *g)
 {
     struct pk_gc_cmd *c = &g->cmd;
@@ -526,19 +642,8 @@ static int do_move(struct pk_grbl *g)
             g->pt_held = 0;
         }
         return do_curve(g);
-    default: { /* G38.x */
-        if (g->check_mode)
-            return 1;
-        int rc = g->mo.probe ? g->mo.probe(g->m, c->target_um, c->feed_umpm,
-                                           (c->motion >= PK_GC_MOT_PROBE_AWAY ? 1u : 0u) |
-                                           ((c->motion - PK_GC_MOT_PROBE_TOWARD) & 1u ? 2u : 0u))
-                             : PK_GRBL_M_ENOTSUP;
-        if (rc == PK_GRBL_M_ENOTSUP) {
-            PK_GRBL_PUTS(g, "[MSG:No probe input: G38 is not supported by this machine]\r\n");
-            return -PK_GC_E_UNSUPPORTED;
-        }
-        return op_rc(rc);
-    }
+    default:
+        return do_probe(g);
     }
 }
 
@@ -663,6 +768,7 @@ static int advance(struct pk_grbl *g)
 static void start_softlimit(struct pk_grbl *g)
 {
     g->mode = MODE_SOFTLIMIT;
+    g->owed = 1; /* the line that tripped it is answered at the reset (Grbl) */
     if (pk_grbl_mstate(g) == PK_GRBL_M_RUN)
         g->mo.hold(g->m);
 }
@@ -720,6 +826,13 @@ static void gcode_line(struct pk_grbl *g, const uint8_t *s, size_t n)
 
 /* ---- $ commands ----------------------------------------------------------------------- */
 
+/* The machine has at least one limit switch input. */
+static int has_limits(struct pk_grbl *g)
+{
+    return PK_GRBL_INPUTS && g->mo.inputs && g->mo.set_hard_limits &&
+           (g->mo.inputs(g->m, PK_GRBL_IN_HAVE) & PK_GRBL_IN_LIMITS) != 0u;
+}
+
 static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
 {
     int idx;
@@ -733,6 +846,10 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
         return rc;
     if (pk_grbl_mstate(g) != PK_GRBL_M_IDLE && pk_grbl_mstate(g) != PK_GRBL_M_ALARM)
         return 8;
+    if (idx == PK_GRBL_S_HARD_LIMITS && val && !has_limits(g)) {
+        PK_GRBL_PUTS(g, "[MSG:No limit switches: $21=1 refused]\r\n");
+        return 3;
+    }
     if (g->mo.configure(g->m, &next) != 0) {
         PK_GRBL_PUTS(g, "[MSG:Setting refused by the machine]\r\n");
         return 3;
@@ -744,10 +861,8 @@ static int set_setting(struct pk_grbl *g, const uint8_t *s, size_t n)
     g->mo.position_um(g->m, g->gc.pos_um);
     if (idx == PK_GRBL_S_REPORT_INCHES)
         g->wco_counter = 0;
-    /* stored for the limit inputs; say so where there are none */
-    if (val && !g->mo.home && idx == PK_GRBL_S_HARD_LIMITS)
-        PK_GRBL_PUTS(g, "[MSG:No limit switches: hard limits stored, not active]\r\n");
-    if (val && !g->mo.home && idx == PK_GRBL_S_HOMING)
+    /* $22=1 without switches still enables soft limits ($20); say $H cannot run */
+    if (val && !has_limits(g) && idx == PK_GRBL_S_HOMING)
         PK_GRBL_PUTS(g, "[MSG:No limit switches: $H cannot run, $X unlocks]\r\n");
     return 0;
 }
@@ -827,6 +942,8 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
                 g->check_mode = 1;
                 PK_GRBL_PUTS(g, "[MSG:Enabled]\r\n");
             }
+        } else if (gs == GS_ALARM && door_ajar(g)) {
+            rc = 13; /* Grbl: $X is refused while the door is open */
         } else { /* X */
             if (pk_grbl_mstate(g) == PK_GRBL_M_ALARM) {
                 /* a machine fault: clear it (reset) before unlocking */
@@ -857,14 +974,22 @@ static void system_line(struct pk_grbl *g, const uint8_t *c, size_t k)
                 return;
             }
             break;
-        case 'H':
-            if (k != 1)
-                rc = 3;
-            else if (!g->set.v[PK_GRBL_S_HOMING])
+        case 'H': /* Grbl 1.1h default build: no $HX single-axis commands */
+            if (!g->set.v[PK_GRBL_S_HOMING])
                 rc = 5;
-            else if (!g->mo.home || g->mo.home(g->m, (1u << PK_GC_AXES) - 1u) == PK_GRBL_M_ENOTSUP) {
+            else if (door_ajar(g))
+                rc = 13;
+            else if (k != 1)
+                rc = 3;
+            else if (!g->mo.home || !has_limits(g) ||
+                     (rc = g->mo.home(g->m, (1u << PK_GC_AXES) - 1u)) == PK_GRBL_M_ENOTSUP) {
                 PK_GRBL_PUTS(g, "[MSG:No limit switches: $H is not supported by this machine]\r\n");
                 rc = 5;
+            } else if (rc != PK_GRBL_M_OK) {
+                rc = 9; /* the machine refused (in its own alarm, a setting out of range) */
+            } else {
+                g->mode = MODE_HOMING; /* answered when the cycle ends */
+                return;
             }
             break;
         case 'S':
@@ -1063,6 +1188,16 @@ static int startup_line(struct pk_grbl *g)
 static void greet(struct pk_grbl *g)
 {
     PK_GRBL_PUTS(g, "\r\nGrbl 1.1h [" PK_GRBL_VERSION_STR " '$' for help]\r\n");
+    if (PK_GRBL_INPUTS && g->set.v[PK_GRBL_S_HARD_LIMITS] && g->mo.inputs) {
+        /* Grbl's CHECK_LIMITS_AT_INIT */
+        if (g->mo.inputs(g->m, PK_GRBL_IN_LEVELS) & PK_GRBL_IN_LIMITS) {
+            if (!g->alarm)
+                g->alarm = ALARM_LOCK;
+            PK_GRBL_PUTS(g, "[MSG:Check Limits]\r\n");
+        }
+    }
+    if (g->set.v[PK_GRBL_S_HARD_LIMITS] && !has_limits(g))
+        PK_GRBL_PUTS(g, "[MSG:No limit switches: $21=1 has no effect]\r\n");
     if (g->alarm)
         PK_GRBL_PUTS(g, "[MSG:'$H'|'$X' to unlock]\r\n");
     g->startup_next = g->alarm ? PK_GRBL_N_STARTUP : 0u;
@@ -1070,9 +1205,12 @@ static void greet(struct pk_grbl *g)
 
 static void soft_reset(struct pk_grbl *g)
 {
-    /* Grbl answers the line that tripped a soft limit when the reset comes */
-    if (g->mode == MODE_CRITICAL || g->mode == MODE_SOFTLIMIT)
+    /* Grbl answers the line that tripped a soft (or hard) limit when the
+     * reset comes */
+    if (g->owed)
         answer(g, 0);
+    g->owed = 0;
+    g->home_ok_due = 0;
     int cut = g->mo.reset(g->m);
     g->stats.resets++;
     g->len = 0;
@@ -1105,14 +1243,14 @@ static void soft_reset(struct pk_grbl *g)
             g->alarm = ALARM_LOCK; /* Grbl: out of sleep into the alarm lock */
     }
     g->mode = MODE_RUN;
-    if (cut && !g->alarm)
+    if (cut && !g->alarm) { /* after an alarm (a hard limit) nothing more is reported */
         g->alarm = 3;
+        PK_GRBL_PUTS(g, "ALARM:3\r\n");
+    }
     g->ovr_feed = g->ovr_rapid = g->ovr_spindle = 100;
     apply_overrides(g);
     g->wco_counter = g->ovr_counter = 0;
     reset_gcode_state(g);
-    if (cut)
-        PK_GRBL_PUTS(g, "ALARM:3\r\n");
     g->greet_due = 1;
 }
 
@@ -1192,6 +1330,7 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
     }
     if (mo->configure(m, &g->set) != 0)
         return -1;
+    g->hard_now = 2;    /* hard limits: set at the first poll */
     g->pen_now = 0;     /* the machine starts pen up, spindle output 0 */
     g->laser_sent = 0;
     g->ovr_feed = g->ovr_rapid = g->ovr_spindle = 100;
@@ -1214,7 +1353,8 @@ int pk_grbl_idle(const struct pk_grbl *g)
 {
     return g->out_len == 0 && g->todo == 0 && g->report == R_NONE && !g->greet_due &&
            !g->status_due && g->startup_next >= PK_GRBL_N_STARTUP && !g->msg_due &&
-           g->mode != MODE_SOFTLIMIT && g->mode != MODE_SLEEP_REQ;
+           g->mode != MODE_SOFTLIMIT && g->mode != MODE_SLEEP_REQ && g->mode != MODE_HOMING &&
+           !g->home_ok_due;
 }
 
 void pk_grbl_drop_partial_line(struct pk_grbl *g)
@@ -1236,16 +1376,88 @@ static void messages(struct pk_grbl *g)
     case MSG_DOOR_HOLD:
         PK_GRBL_PUTS(g, "[MSG:No safety door: feed hold only, the tool stays as it is]\r\n");
         break;
+    case MSG_DOOR_OPEN:
+        PK_GRBL_PUTS(g, "[MSG:Door open: feed hold only, the tool stays as it is]\r\n");
+        break;
     default:
         break;
     }
     g->msg_due = MSG_NONE;
 }
 
+/* $H failed (ALARM:6-9): as Grbl, the alarm, the $H line's "ok", then a
+ * reset into the alarm lock. */
+static void home_failed(struct pk_grbl *g, int alarm)
+{
+    g->mode = MODE_RUN;
+    raise_alarm(g, (uint8_t)alarm);
+    answer(g, 0);
+    soft_reset(g);
+}
+
+/* Drive a running $H. */
+static void homing(struct pk_grbl *g)
+{
+    if (!PK_GRBL_INPUTS || g->mode != MODE_HOMING || pk_grbl_out_room(g) < PK_GRBL_ANSWER_MAX)
+        return;
+    int r = g->mo.home_poll(g->m);
+    if (r == 0)
+        return;
+    if (r != 1) {
+        home_failed(g, r);
+        return;
+    }
+    g->mode = MODE_RUN;
+    g->alarm = 0;
+    g->m_alarm_seen = 0;
+    g->mo.position_um(g->m, g->gc.pos_um); /* Grbl: gc_sync_position */
+    g->gc.cubic_prev = 0;
+    g->wco_counter = 0;
+    g->startup_next = 0; /* Grbl runs the startup lines, then answers $H */
+    g->home_ok_due = 1;
+}
+
+/* Hard limits on the machine as $21 says, except in an alarm (Grbl ignores
+ * the switches there, so that a machine on its switch can be unlocked and
+ * moved) and during $H (pk_home switches them itself). */
+static void hard_apply(struct pk_grbl *g)
+{
+    if (!PK_GRBL_INPUTS || !g->mo.set_hard_limits || g->mode == MODE_HOMING ||
+        pk_grbl_mstate(g) == PK_GRBL_M_ALARM)
+        return; /* a tripped machine stays as it is until the reset */
+    uint8_t want = g->set.v[PK_GRBL_S_HARD_LIMITS] && !g->alarm && g->mode != MODE_CRITICAL;
+    if (want == g->hard_now)
+        return;
+    /* Grbl's limit interrupt trips on an edge: a switch still closed when
+     * the limits are armed (after $X, at power-on) does not trip; the core
+     * trips on a closed switch, so arm once every switch is open. */
+    if (want && g->mo.inputs && (g->mo.inputs(g->m, PK_GRBL_IN_LEVELS) & PK_GRBL_IN_LIMITS) != 0u)
+        return;
+    (void)g->mo.set_hard_limits(g->m, want); /* ENOTSUP: refused when set, told at the greeting */
+    g->hard_now = want;
+}
+
 void pk_grbl_poll(struct pk_grbl *g)
 {
     realtime(g);
-    if (pk_grbl_mstate(g) == PK_GRBL_M_ALARM && !g->m_alarm_seen &&
+    if (PK_GRBL_INPUTS && pk_grbl_mstate(g) == PK_GRBL_M_ALARM && !g->m_alarm_seen &&
+        g->mo.alarm_is_limit &&
+        g->mo.alarm_is_limit(g->m) && pk_grbl_out_room(g) >= PK_GRBL_ANSWER_MAX) {
+        /* Grbl's hard limit: a critical event. Only '?' and a reset from
+         * here; a line being handed over is answered at the reset. */
+        g->m_alarm_seen = 1;
+        g->alarm = 1;
+        g->mode = MODE_CRITICAL;
+        g->jogging = 0;
+        g->jog_cancel = 0;
+        if (g->todo) {
+            g->todo = 0;
+            g->step = 0;
+            g->owed = 1;
+        }
+        PK_GRBL_PUTS(g, "ALARM:1\r\n[MSG:Reset to continue]\r\n");
+    }
+    if (pk_grbl_mstate(g) == PK_GRBL_M_ALARM && !g->m_alarm_seen && g->mode != MODE_HOMING &&
         pk_grbl_out_room(g) >= PK_GRBL_ANSWER_MAX) {
         /* A machine fault (a HAL write failed): position may be lost, as
          * after a hard limit, hence Grbl's ALARM:1. */
@@ -1260,6 +1472,8 @@ void pk_grbl_poll(struct pk_grbl *g)
         }
     }
     modes(g);
+    homing(g);
+    hard_apply(g);
     flush(g);
     if (g->greet_due && pk_grbl_out_room(g) >= PK_GRBL_ANSWER_MAX) {
         g->greet_due = 0;
@@ -1291,6 +1505,11 @@ void pk_grbl_poll(struct pk_grbl *g)
         if (g->startup_next < PK_GRBL_N_STARTUP) {
             if (startup_line(g))
                 continue;
+        }
+        if (g->home_ok_due) {
+            g->home_ok_due = 0;
+            answer(g, 0);
+            continue;
         }
         uint8_t b;
         int n = g->io.read(g->io.ctx, &b, 1);

@@ -34,7 +34,14 @@
  *     at once after an override or accessory change; $13 inches;
  *   - reset (Ctrl-X): Idle again unless motion was cut (then ALARM:3 and the
  *     G-code lock until $X), as Grbl: a reset after a completed hold is Idle;
- *   - $ commands: $ $$ $# $G $I $I= $N $Nx= $x= $C $X $H $J= $SLP, $RST= with $ # or *.
+ *   - $ commands: $ $$ $# $G $I $I= $N $Nx= $x= $C $X $H $J= $SLP, $RST= with $ # or *;
+ *   - inputs (when the machine has them, pk_grbl_machine_ops.inputs): $21
+ *     hard limits (a switch closing: "ALARM:1", "[MSG:Reset to continue]",
+ *     nothing but '?' and reset until a reset; refused on a board without
+ *     limit switches), $H homing with $22-$27 (ALARM:6-9 on failure, then a
+ *     reset, as Grbl), G38.2-G38.5 probing (ALARM:4/5, "[PRB:...:1]", $#),
+ *     Pn: in the status (P X Y Z D R H S), the hold/resume/reset buttons as
+ *     '!' '~' Ctrl-X and the door input as 0x84.
  *
  * Settings, coordinate data (G54..G59, G28, G30), startup lines and the
  * build-info line live in a non-volatile store (struct pk_grbl_nvm: EEPROM on
@@ -71,6 +78,20 @@
  *  reports go out in fewer polls. */
 #ifndef PK_GRBL_OUT_SIZE
 #define PK_GRBL_OUT_SIZE (PK_GRBL_ANSWER_MAX + 64u)
+#endif
+/** Build knob: 1 the engine drives the machine's inputs (hard limits, $H,
+ *  G38.x, Pn:, the buttons and the door input; about 3.7 KB on a Cortex-M3,
+ *  6.6 KB on AVR); 0 leaves them out (then $21=1 is refused and $H / G38.x
+ *  answer as on a machine without switches or probe). Default: 1 in a hosted
+ *  build (simulators, `plotkin serve`, the libgpiod build), 0 in a board
+ *  image (freestanding), whose HAL has no input lines yet: a board that gets
+ *  them sets -DPK_GRBL_INPUTS=1 in its board.mk. */
+#ifndef PK_GRBL_INPUTS
+#if defined(__STDC_HOSTED__) && __STDC_HOSTED__
+#define PK_GRBL_INPUTS 1
+#else
+#define PK_GRBL_INPUTS 0
+#endif
 #endif
 /** Startup lines ($N0, $N1), as Grbl. */
 #define PK_GRBL_N_STARTUP 2u
@@ -125,6 +146,21 @@ enum pk_grbl_mstate {
 #define PK_GRBL_M_ERROR (-1)    /**< refused (alarm or range): the line fails */
 #define PK_GRBL_M_ENOTSUP (-2)  /**< this machine cannot do it (no probe input, no switches) */
 #define PK_GRBL_M_ETRAVEL (-3)  /**< soft limits: the move would leave the travel */
+#define PK_GRBL_M_ETRIGGERED (-4) /**< probe: already in the state waited for (ALARM:4) */
+
+/** Input lines (bits of pk_grbl_machine_ops.inputs; the layout of hal.h's
+ *  enum pk_hal_input): limit switch of axis i = bit i, then these. */
+#define PK_GRBL_IN_LIMITS 0x0Fu
+#define PK_GRBL_IN_PROBE 0x10u
+#define PK_GRBL_IN_DOOR 0x20u
+#define PK_GRBL_IN_HOLD 0x40u
+#define PK_GRBL_IN_RESUME 0x80u
+#define PK_GRBL_IN_RESET 0x100u
+/** What pk_grbl_machine_ops.inputs reports. */
+enum { PK_GRBL_IN_HAVE = 0, PK_GRBL_IN_LEVELS = 1, PK_GRBL_IN_EVENTS = 2 };
+/** Results of pk_grbl_machine_ops.probe_result. */
+enum { PK_GRBL_PRB_RUNNING = 0, PK_GRBL_PRB_CONTACT = 1, PK_GRBL_PRB_MISSED = 2,
+       PK_GRBL_PRB_ABORTED = 3 };
 
 /* ---- settings ------------------------------------------------------------ */
 
@@ -261,11 +297,33 @@ struct pk_grbl_machine_ops {
     int (*set_override)(void *m, uint16_t feed_pct, uint16_t rapid_pct);
     /** Optional: soft limits box (machine µm) on/off. */
     int (*set_soft_limits)(void *m, int on, const pk_um_t lo[PK_GC_AXES], const pk_um_t hi[PK_GC_AXES]);
-    /** Optional (NULL = PK_GRBL_M_ENOTSUP): G38.x probe toward target;
-     *  flags bit 0 away, bit 1 no error on miss. The later inputs phase. */
+    /** Optional (NULL = PK_GRBL_M_ENOTSUP): start a G38.x probing move
+     *  toward target (called while idle); flags bit 0 away (G38.4/.5), bit 1
+     *  no error on a miss. OK started, ETRIGGERED (probe already in the state
+     *  waited for: nothing moved), ENOTSUP (no probe input), ERROR. */
     int (*probe)(void *m, const pk_um_t target[PK_GC_AXES], pk_gc_umpm_t feed_umpm, unsigned flags);
-    /** Optional (NULL = PK_GRBL_M_ENOTSUP): homing cycle ($H). */
+    /** Optional (with probe): the probing move's outcome (PK_GRBL_PRB_*);
+     *  pos (µm): CONTACT: the position at the contact; MISSED: at the end. */
+    int (*probe_result)(void *m, pk_um_t pos[PK_GC_AXES]);
+    /** Optional (NULL = PK_GRBL_M_ENOTSUP): start the homing cycle ($H) of
+     *  the axes of axes_mask that have switches (called while idle) with the
+     *  settings last configured ($23-$27, $130..). OK, ENOTSUP, ERROR. */
     int (*home)(void *m, unsigned axes_mask);
+    /** Optional (with home): drive the cycle: 0 running, 1 done (positions
+     *  set), else Grbl's alarm 6-9 (the machine is stopped). */
+    int (*home_poll)(void *m);
+    /** Optional (with home): stop a running cycle now, reason alarm (6 reset,
+     *  7 door). */
+    void (*home_abort)(void *m, int alarm);
+    /** Optional: hard limits on/off (OK, or ENOTSUP: no limit input). */
+    int (*set_hard_limits)(void *m, int on);
+    /** Optional (NULL: no inputs): PK_GRBL_IN_* bits: what = PK_GRBL_IN_HAVE
+     *  the lines the board has, _LEVELS the active ones now, _EVENTS the
+     *  ones that became active since the last such call. */
+    uint32_t (*inputs)(void *m, unsigned what);
+    /** Optional: 1 if the machine's ALARM state is a hard limit (Grbl's
+     *  critical ALARM:1), 0 for other faults. */
+    int (*alarm_is_limit)(void *m);
 };
 
 /* ---- the observer -------------------------------------------------------- */
@@ -385,6 +443,12 @@ struct pk_grbl {
     uint8_t jogging;      /* $J= moves handed over and not finished: state "Jog" */
     uint8_t jog_cancel;   /* cancel requested: hold, then flush once stopped */
     uint8_t msg_due;      /* a one-line [MSG:...] waiting for output room (MSG_*) */
+    /* inputs: hard limits, homing, probing */
+    uint8_t owed;         /* a line is answered "ok" at the next reset (Grbl, critical alarms) */
+    uint8_t hard_now;     /* hard limits as last set on the machine (2: unknown) */
+    uint8_t home_ok_due;  /* $H done: answer it after the startup lines */
+    uint8_t probe_ok;     /* Grbl's sys.probe_succeeded */
+    pk_um_t prb_um[PK_GC_AXES]; /* Grbl's sys_probe_position (machine µm) */
 };
 
 /**
@@ -425,7 +489,7 @@ int pk_grbl_idle(const struct pk_grbl *g);
 /** The state the status report names. */
 enum pk_grbl_state {
     PK_GRBL_IDLE = 0, PK_GRBL_RUN, PK_GRBL_HOLD0, PK_GRBL_HOLD1, PK_GRBL_JOG,
-    PK_GRBL_ALARM, PK_GRBL_CHECK, PK_GRBL_SLEEP
+    PK_GRBL_ALARM, PK_GRBL_CHECK, PK_GRBL_SLEEP, PK_GRBL_HOME
 };
 /** [MAIN] The engine's state now (enum pk_grbl_state). */
 int pk_grbl_state(const struct pk_grbl *g);

@@ -17,12 +17,13 @@ enum {
     MODE_SOFTLIMIT,   /* soft limit hit: stopping, then ALARM:2 */
     MODE_CRITICAL,    /* after ALARM:2: only '?' and reset */
     MODE_SLEEP_REQ,   /* $SLP: stopping */
-    MODE_SLEEP        /* Sleep: only reset */
+    MODE_SLEEP,       /* Sleep: only reset */
+    MODE_HOMING       /* $H running: only '?', reset (ALARM:6) and the door (ALARM:7) */
 };
 
 /* one-line messages (pk_grbl.msg_due) */
 enum {
-    MSG_NONE = 0, MSG_RESTORING, MSG_NO_SPINDLE_STOP, MSG_DOOR_HOLD
+    MSG_NONE = 0, MSG_RESTORING, MSG_NO_SPINDLE_STOP, MSG_DOOR_HOLD, MSG_DOOR_OPEN
 };
 
 /* multi-line reports (pk_grbl.report) */

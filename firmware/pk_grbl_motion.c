@@ -69,6 +69,9 @@ void pk_grbl_motion_cfg(const struct pk_grbl_settings *s, uint32_t tick_hz,
     cfg->pen_settle_ms = ival(s, PK_GRBL_S_PEN_SETTLE_MS);
     cfg->pen_down_level = 1;
     cfg->lookahead_wait_ms = (uint16_t)ival(s, PK_GRBL_S_LOOKAHEAD_MS);
+    /* Grbl $5 / $6: invert the limit / probe pins */
+    cfg->input_invert = (uint16_t)((ival(s, PK_GRBL_S_LIMIT_INVERT) ? PK_IN_LIMITS : 0u) |
+                                   (ival(s, PK_GRBL_S_PROBE_INVERT) ? 1u << PK_IN_PROBE : 0u));
     smooth_cfg(s, 0, (pk_um_t)ival(s, PK_GRBL_S_TOLERANCE_MM), &cfg->smooth);
 }
 
@@ -199,6 +202,101 @@ static int op_set_soft_limits(void *ctx, int on, const pk_um_t lo[PK_GC_AXES], c
     return map_rc(pk_machine_set_soft_limits(mach(ctx), on != 0, l, h));
 }
 
+/* ---- inputs (PK_GRBL_INPUTS) ---- */
+#if PK_GRBL_INPUTS
+
+_Static_assert(PK_GRBL_IN_LIMITS == PK_IN_LIMITS && PK_GRBL_IN_PROBE == 1u << PK_IN_PROBE &&
+               PK_GRBL_IN_DOOR == 1u << PK_IN_DOOR && PK_GRBL_IN_HOLD == 1u << PK_IN_HOLD &&
+               PK_GRBL_IN_RESUME == 1u << PK_IN_RESUME && PK_GRBL_IN_RESET == 1u << PK_IN_RESET,
+               "the engine's input bits are hal.h's");
+
+static int op_probe(void *ctx, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t feed, unsigned flags)
+{
+    pk_um_t p[PK_AXES];
+    to_machine(t, p);
+    int rc = pk_machine_probe(mach(ctx), p, feed_of(feed), (flags & 1u) != 0u);
+    if (rc == PK_MOTION_ENOINPUT)
+        return PK_GRBL_M_ENOTSUP;
+    if (rc == PK_MOTION_ETRIGGERED)
+        return PK_GRBL_M_ETRIGGERED;
+    return map_rc(rc);
+}
+
+static int op_probe_result(void *ctx, pk_um_t pos[PK_GC_AXES])
+{
+    struct pk_machine *m = mach(ctx);
+    pk_steps_t st[PK_AXES];
+    enum pk_cycle_result r = pk_machine_cycle(m, st, NULL);
+    for (int a = 0; a < PK_GC_AXES; a++)
+        pos[a] = a < PK_AXES ? pk_steps_to_um(st[a], m->cfg.steps_per_mm_q16[a]) : 0;
+    switch (r) {
+    case PK_CYCLE_RUNNING: return PK_GRBL_PRB_RUNNING;
+    case PK_CYCLE_DONE: return PK_GRBL_PRB_CONTACT;
+    case PK_CYCLE_MISSED: return PK_GRBL_PRB_MISSED;
+    default: return PK_GRBL_PRB_ABORTED;
+    }
+}
+
+static int op_home(void *ctx, unsigned axes)
+{
+    struct pk_grbl_motion *gm = ctx;
+    const struct pk_grbl_settings *s = &gm->set;
+    struct pk_home_cfg c;
+    memset(&c, 0, sizeof c);
+    c.dir_invert = (uint8_t)ival(s, PK_GRBL_S_HOMING_DIR);
+    c.feed = ival(s, PK_GRBL_S_HOMING_FEED);   /* 1e-3 mm/min = µm/min */
+    c.seek = ival(s, PK_GRBL_S_HOMING_SEEK);
+    c.debounce_ms = (uint16_t)ival(s, PK_GRBL_S_HOMING_DEBOUNCE);
+    c.pulloff_um = (pk_um_t)ival(s, PK_GRBL_S_HOMING_PULLOFF);
+    for (int a = 0; a < PK_AXES && a < PK_GC_AXES; a++)
+        c.travel_um[a] = (pk_um_t)ival(s, PK_GRBL_S_TRAVEL_X + a);
+    /* the axes asked for that have a switch (Grbl homes what its cycles name) */
+    uint32_t have = gm->hal->inputs & PK_IN_LIMITS & axes;
+    if (have == 0u)
+        return PK_GRBL_M_ENOTSUP;
+    int rc = pk_home_start(&gm->home, gm->m, &c, (uint8_t)have);
+    return rc == PK_MOTION_ENOINPUT ? PK_GRBL_M_ENOTSUP : map_rc(rc);
+}
+
+static int op_home_poll(void *ctx)
+{
+    struct pk_grbl_motion *gm = ctx;
+    int st = pk_home_poll(&gm->home);
+    if (st == PK_HOME_RUNNING)
+        return 0;
+    if (st == PK_HOME_DONE)
+        return 1;
+    int f = (int)pk_home_fail(&gm->home);
+    return f == 0 ? PK_HOME_FAIL_RESET : f;
+}
+
+static void op_home_abort(void *ctx, int alarm)
+{
+    pk_home_abort(&((struct pk_grbl_motion *)ctx)->home, (enum pk_home_fail)alarm);
+}
+
+static int op_set_hard_limits(void *ctx, int on)
+{
+    int rc = pk_machine_set_hard_limits(mach(ctx), on != 0);
+    return rc == PK_MOTION_ENOINPUT ? PK_GRBL_M_ENOTSUP : map_rc(rc);
+}
+
+static uint32_t op_inputs(void *ctx, unsigned what)
+{
+    struct pk_grbl_motion *gm = ctx;
+    if (what == PK_GRBL_IN_HAVE)
+        return gm->hal->inputs;
+    if (gm->hal->inputs == 0u)
+        return 0u;
+    return what == PK_GRBL_IN_LEVELS ? pk_machine_inputs(gm->m) : pk_machine_input_events(gm->m);
+}
+
+static int op_alarm_is_limit(void *ctx)
+{
+    return pk_machine_alarm(mach(ctx)) == PK_ALARM_HARD_LIMIT;
+}
+#endif
+
 /* A function rather than a const table: a table of pointers would be
  * writable (relocated) data, which the firmware never holds. */
 void pk_grbl_motion_ops(struct pk_grbl_machine_ops *o)
@@ -222,8 +320,16 @@ void pk_grbl_motion_ops(struct pk_grbl_machine_ops *o)
     o->configure = op_configure;
     o->set_override = op_set_override;
     o->set_soft_limits = op_set_soft_limits;
-    o->probe = NULL; /* no probe input in the HAL yet: G38.x is refused loudly */
-    o->home = NULL;  /* no limit switches yet: $H is refused loudly */
+#if PK_GRBL_INPUTS /* else NULL: no switches, no probe, no buttons */
+    o->probe = op_probe;
+    o->probe_result = op_probe_result;
+    o->home = op_home;
+    o->home_poll = op_home_poll;
+    o->home_abort = op_home_abort;
+    o->set_hard_limits = op_set_hard_limits;
+    o->inputs = op_inputs;
+    o->alarm_is_limit = op_alarm_is_limit;
+#endif
 }
 
 /* ---- the HAL's store ---- */

@@ -12,8 +12,11 @@
  * position follows a new steps/mm, as in Grbl) and refuses while moving; a
  * steps/mm change that would put the current position beyond ±PK_UM_MAX is
  * refused here (never wrapped).
- * Moves map PK_MOTION_ETRAVEL (soft limits) to PK_GRBL_M_ETRAVEL; G38 and $H
- * are PK_GRBL_M_ENOTSUP (no probe input, no limit switches yet).
+ * Moves map PK_MOTION_ETRAVEL (soft limits) to PK_GRBL_M_ETRAVEL. Inputs:
+ * $5 / $6 invert the limit / probe inputs (pk_motion_cfg.input_invert);
+ * G38.x runs pk_machine_probe; $H runs pk_home.h's cycle with $23-$27 and
+ * $130..; $21 pk_machine_set_hard_limits; a board without the input answers
+ * PK_GRBL_M_ENOTSUP.
  *
  * Usage:
  *     struct pk_grbl_motion gm = { &machine, &hal };
@@ -27,6 +30,7 @@
 
 #include "hal.h"
 #include "pk_grbl.h"
+#include "pk_home.h"
 #include "pk_motion.h"
 
 struct pk_grbl_motion {
@@ -34,6 +38,9 @@ struct pk_grbl_motion {
     const struct pk_hal *hal;    /**< its HAL; must outlive the machine */
     struct pk_grbl_settings set; /**< last settings applied (private) */
     int ready;                   /**< the machine has been initialised (private) */
+#if PK_GRBL_INPUTS
+    struct pk_home home;         /**< the $H cycle (private) */
+#endif
 };
 
 /** Fill *ops with the adapter's machine ops (ctx = struct pk_grbl_motion).

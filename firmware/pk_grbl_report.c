@@ -140,6 +140,8 @@ int pk_grbl_state(const struct pk_grbl *g)
     int st = pk_grbl_mstate(g);
     if (g->mode == MODE_SLEEP)
         return PK_GRBL_SLEEP;
+    if (g->mode == MODE_HOMING)
+        return PK_GRBL_HOME;
     if (st == PK_GRBL_M_ALARM || g->alarm)
         return PK_GRBL_ALARM;
     if (g->check_mode)
@@ -160,7 +162,8 @@ static const char *state_name(struct pk_grbl *g, int *busy)
 {
     int s = pk_grbl_state(g);
     /* Grbl's "busy" states refresh WCO/Ov more slowly */
-    *busy = s == PK_GRBL_RUN || s == PK_GRBL_HOLD0 || s == PK_GRBL_HOLD1 || s == PK_GRBL_JOG;
+    *busy = s == PK_GRBL_RUN || s == PK_GRBL_HOLD0 || s == PK_GRBL_HOLD1 || s == PK_GRBL_JOG ||
+            s == PK_GRBL_HOME;
     switch (s) {
     case PK_GRBL_RUN: return PK_ROM_STR("Run");
     case PK_GRBL_HOLD0: return PK_ROM_STR("Hold:0");
@@ -169,6 +172,7 @@ static const char *state_name(struct pk_grbl *g, int *busy)
     case PK_GRBL_ALARM: return PK_ROM_STR("Alarm");
     case PK_GRBL_CHECK: return PK_ROM_STR("Check");
     case PK_GRBL_SLEEP: return PK_ROM_STR("Sleep");
+    case PK_GRBL_HOME: return PK_ROM_STR("Home");
     default: return PK_ROM_STR("Idle");
     }
 }
@@ -222,6 +226,23 @@ void pk_grbl_status_report(struct pk_grbl *g)
     pk_grbl_put_rate(g, g->mo.speed_umpm(g->m));
     PK_GRBL_PUTS(g, ",");
     pk_grbl_put_fixed(g, pk_grbl_spindle_rpm_milli(g), 3, 0);
+    if (PK_GRBL_INPUTS && g->mo.inputs) {
+        /* Grbl's Pn: the active inputs, in its order P X Y Z D R H S */
+        uint32_t lv = g->mo.inputs(g->m, PK_GRBL_IN_LEVELS);
+        if (lv != 0u) {
+            /* input bit of each letter, one nibble each: P=4 X=0 Y=1 Z=2 D=5 R=8 H=6 S=7 */
+            const uint32_t order = 0x76852104u;
+            const char *letters = PK_ROM_STR("PXYZDRHS");
+            PK_GRBL_PUTS(g, "|Pn:");
+            for (unsigned i = 0; i < 8u; i++) {
+                unsigned b = (order >> (4u * i)) & 0xFu;
+                if ((lv & (1u << b)) == 0u || (b < 4u && b >= PK_GC_AXES))
+                    continue;
+                char ch = (char)pk_rom_u8(letters + i);
+                pk_grbl_put(g, &ch, 1);
+            }
+        }
+    }
     /* Grbl's schedule (report.c): WCO when its counter runs out, then Ov on
      * the next report; both at once after a change (counter set to 0). */
     if (g->wco_counter > 0) {
@@ -332,10 +353,9 @@ static int report_piece(struct pk_grbl *g)
             pk_grbl_put_len(g, g->gc.tlo_um);
             PK_GRBL_PUTS(g, "]\r\n");
         } else {
-            const pk_um_t zero[PK_GC_AXES] = { 0 }; /* a local: a zeroed const lands in .bss on AVR */
             PK_GRBL_PUTS(g, "[PRB:");
-            pk_grbl_put_axes(g, zero);
-            PK_GRBL_PUTS(g, ":0]\r\n");
+            pk_grbl_put_axes(g, g->prb_um);
+            pk_grbl_puts_rom(g, g->probe_ok ? PK_ROM_STR(":1]\r\n") : PK_ROM_STR(":0]\r\n"));
             return 1;
         }
         return 0;

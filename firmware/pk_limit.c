@@ -270,6 +270,18 @@ static void tab_position(const struct pk_refine *r, const struct pk_mask *m, int
                     : (pk_um_t)pk_div_round64(acc[a], (int64_t)m->den * ((int64_t)1 << f));
 }
 
+/* Tangents need differences of level-K points. A point is below
+ * 2^(21 + F) in magnitude (PK_UM_MAX < 2^21 µm, F fraction bits), so the
+ * difference of two fits int64 while F <= 41; the table schemes reach
+ * F = D*K = 42 (degree 7, depth 6), where both points are halved first
+ * (all alike: a tangent is a direction; 41 fraction bits remain). Chaikin
+ * (written out, F = 2K + guard bits) never comes near. Finding K2. */
+#define TAN_SHIFT(r) ((r)->F > 41u ? 1u : 0u)
+static int64_t tan_diff(pk_umf_t b, pk_umf_t a, unsigned sh)
+{
+    return sh ? pk_rshift_round64(b, sh) - pk_rshift_round64(a, sh) : (int64_t)b - a;
+}
+
 /* sum_k w_k L_k = sum_k c_k (L(k+1) - L(k)), c_k = -(w_0 + ... + w_k). */
 static void tab_tangent(const struct pk_refine *r, const struct pk_mask *m, int md, pk_q30_t *t)
 {
@@ -278,6 +290,7 @@ static void tab_tangent(const struct pk_refine *r, const struct pk_mask *m, int 
     int64_t d[PK_MASK_MAXLEN][PK_AXES], c[PK_MASK_MAXLEN];
     uint64_t dmax = 0, cabs = 0;
     int64_t run = 0;
+    const unsigned sh = TAN_SHIFT(r);
     for (unsigned k = 0; k + 1u < m->len; k++) {
         const pk_umf_t *A = lim_at(ls, mask_back(ls, m, md, k));
         const pk_umf_t *B = lim_at(ls, mask_back(ls, m, md, k + 1u));
@@ -285,7 +298,7 @@ static void tab_tangent(const struct pk_refine *r, const struct pk_mask *m, int 
         c[k] = run;
         cabs += mag64(run);
         for (unsigned a = 0; a < dims; a++) {
-            d[k][a] = (int64_t)B[a] - A[a];
+            d[k][a] = tan_diff(B[a], A[a], sh);
             if (mag64(d[k][a]) > dmax)
                 dmax = mag64(d[k][a]);
         }
@@ -311,7 +324,7 @@ static void tab_emit(struct pk_refine *r, struct pk_refine_out *out)
         int64_t d[PK_AXES];
         for (unsigned a = 0; a < dims; a++) {
             out->p[a] = pk_out_round(r, p[a]);
-            d[a] = ls->n == 2u ? (int64_t)lim_at(ls, 0)[a] - lim_at(ls, 1)[a] : 0;
+            d[a] = ls->n == 2u ? tan_diff(lim_at(ls, 0)[a], lim_at(ls, 1)[a], TAN_SHIFT(r)) : 0;
         }
         if (r->cfg.tangents)
             pk_unit_q30(d, dims, out->t);

@@ -12,6 +12,8 @@
 #include <string.h>
 #include "pk_motion.h"
 
+static void run_start(struct pk_machine *m);
+
 enum { PK_REQ_MOVE = 0, PK_REQ_PEN, PK_REQ_DWELL, PK_REQ_SMOOTH, PK_REQ_END, PK_REQ_SPINDLE };
 
 /** Input cycles (pk_machine.cycle): probing, homing into the switches,
@@ -184,6 +186,7 @@ int pk_machine_init(struct pk_machine *m, const struct pk_motion_cfg *cfg,
             return PK_MOTION_EHAL;
         m->sg.in_rise = 0;
     }
+    run_start(m); /* the run starts where the machine stands (finding M4) */
     return PK_MOTION_OK;
 }
 
@@ -225,7 +228,7 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     m->sg.alarm = alarm;
     m->lines_planned = lines;
     pk_planner_set_override(&m->planner, m->ovr_feed_pct, m->ovr_rapid_pct);
-    m->acc_n = 0;
+    run_start(m);
     m->acc_policy = m->policy_applied = cfg->smooth;
     return PK_MOTION_OK;
 }
@@ -348,6 +351,12 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
     if (m->acc_n < 2)
         m->acc_n++;
 }
+
+/* A new run starts at the planned position (init, configure, reset, set
+ * position): its first control point is where the machine stands, so the
+ * envelope of a first feed move covers what DLG makes of it (finding M4:
+ * DLG's first new point lay outside the box of the targets alone). */
+static void run_start(struct pk_machine *m) { run_add(m, m->target_um, false); }
 
 /* A request other than a move ends the run (the stroke ends there). */
 static void run_break(struct pk_machine *m)
@@ -634,6 +643,12 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         int32_t d = (int32_t)(qb - qa) * sgn;
         if (d < 0)
             d = 0;
+        /* at most one step per event: an axis whose Q8 distance exceeds the
+         * events (its ends rounded apart, e.g. -5.5 -> 269.5 steps for 274
+         * whole ones) steps at every event; with inc > period its first
+         * event could miss and the block would end a step short (M5) */
+        if (d > 256 * (int64_t)mx)
+            d = (int32_t)(256 * (int64_t)mx); /* < d <= 2^30 */
         int32_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
         f = f < lo ? lo : f > hi ? hi : f;
         b->inc[i] = (uint32_t)d;
@@ -1001,7 +1016,7 @@ bool pk_machine_reset(struct pk_machine *m)
     m->replan = false;
     m->was_full = false;
     m->wait_since = 0;
-    m->acc_n = 0;
+    run_start(m);
     m->acc_policy = m->policy_applied;
     for (unsigned i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = m->sg.pos[i];
@@ -1121,7 +1136,7 @@ static int cycle_start(struct pk_machine *m, uint8_t kind, uint8_t axes, uint8_t
         rc = pk_machine_end(m);   /* run it to its end without waiting for more */
     if (rc != PK_MOTION_OK) {
         m->inq_count = 0;   /* nothing of it stays queued (the FIFO was empty: IDLE) */
-        m->acc_n = 0;
+        run_start(m);
         tok = pk_hal_irq_save(m->hal);
         m->sg.watch = watch_bits(m, CYC_NONE);
         m->sg.fired &= PK_SGW_LIMITS;
@@ -1194,7 +1209,7 @@ int pk_machine_set_position(struct pk_machine *m, const pk_steps_t pos[PK_AXES])
         m->target_steps[i] = pos[i];
         m->target_um[i] = pk_steps_to_um(pos[i], m->cfg.steps_per_mm_q16[i]);
     }
-    m->acc_n = 0;
+    run_start(m);
     return PK_MOTION_OK;
 }
 

@@ -27,3 +27,28 @@ test-build: $(BUILD)/plotkin-gpiod
 
 # Flashable images of the bare-metal boards (hal/avr/, hal/arm/): `make firmware`.
 include hal/firmware.mk
+
+# ---- the test variant: build/plotkin-gpiod-mock ------------------------------
+# The same board program compiled with -DPLOTKIN_GPIOD_MOCK and linked with
+# the simulator's archive, whose host-sim/gpiod_mock.o stands in for -lgpiod;
+# hal/posix/board/board_mock.c registers an in-memory chip that records every
+# edge on the real clock (--mock-trace FILE). Out of the wildcard lists, like
+# the board binary. tests/e2e_gpiod_serve.sh and bench-gpiod run it.
+BOARD_MOCK_CFLAGS := -DPLOTKIN_GPIOD_MOCK -Ihal/posix/board
+$(BUILD)/obj/hal/posix/board/plotkin_gpiod_mock.o: hal/posix/board/plotkin_gpiod.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_COMMON) $(BOARD_MOCK_CFLAGS) $(WARN) $(OPT) $(EXTRA_CFLAGS) -MMD -MP -c $< -o $@
+$(SAN)/obj/hal/posix/board/plotkin_gpiod_mock.o: hal/posix/board/plotkin_gpiod.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_COMMON) $(BOARD_MOCK_CFLAGS) $(WARN) $(SANFLAGS) $(EXTRA_CFLAGS) -MMD -MP -c $< -o $@
+$(BUILD)/plotkin-gpiod-mock: $(BUILD)/obj/hal/posix/board/plotkin_gpiod_mock.o $(BUILD)/obj/hal/posix/board/board_mock.o $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a
+	$(CC) $(OPT) -o $@ $(filter %.o,$^) $(BUILD)/libplotkin_host.a $(BUILD)/libplotkin_fw.a $(HOST_LIBS)
+$(SAN)/plotkin-gpiod-mock: $(SAN)/obj/hal/posix/board/plotkin_gpiod_mock.o $(SAN)/obj/hal/posix/board/board_mock.o $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a
+	$(CC) $(SANFLAGS) -o $@ $(filter %.o,$^) $(SAN)/libplotkin_host.a $(SAN)/libplotkin_fw.a $(HOST_LIBS)
+test-build: $(BUILD)/plotkin-gpiod-mock $(SAN)/plotkin-gpiod-mock
+
+# Step timing error of the board loop on this machine (a table; not a test).
+.PHONY: bench-gpiod
+bench-gpiod: $(BUILD)/plotkin-gpiod-mock
+	@$(PYTHON3) bench/gpiod_timing.py $(BUILD)/plotkin-gpiod-mock
+bench: bench-gpiod

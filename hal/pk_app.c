@@ -8,6 +8,12 @@
 
 int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
 {
+    return pk_app_init_settings(app, hal, NULL);
+}
+
+int pk_app_init_settings(struct pk_app *app, const struct pk_hal *hal,
+                         const struct pk_grbl_settings *set)
+{
     memset(app, 0, sizeof *app);
     app->gm.m = &app->m;
     app->gm.hal = hal;
@@ -18,7 +24,7 @@ int pk_app_init(struct pk_app *app, const struct pk_hal *hal)
     pk_grbl_motion_ops(&ops);
     struct pk_grbl_nvm nvm; /* the HAL's EEPROM/flash store, if it has one */
     pk_grbl_motion_nvm(hal, &nvm);
-    return pk_grbl_init(&app->g, &io, &ops, &app->gm, NULL, &nvm) == 0 ? 0 : -1;
+    return pk_grbl_init(&app->g, &io, &ops, &app->gm, set, &nvm) == 0 ? 0 : -1;
 }
 
 void pk_app_poll(struct pk_app *app)

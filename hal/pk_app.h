@@ -43,6 +43,15 @@ struct pk_app {
 int pk_app_init(struct pk_app *app, const struct pk_hal *hal);
 
 /**
+ * pk_app_init with the machine's `$N` settings (copied; NULL: the engine's
+ * defaults): for a board that has them from somewhere other than the engine's
+ * defaults (the Linux board's --config file). Same returns and context; -1
+ * also when the machine refuses these settings.
+ */
+int pk_app_init_settings(struct pk_app *app, const struct pk_hal *hal,
+                         const struct pk_grbl_settings *set);
+
+/**
  * One main-loop iteration: the engine (realtime events, lines, answers), then
  * the machine (strokes, planner, step chunks, timer arming). Bounded work.
  * Calling context: MAIN, as often as possible.

@@ -4,6 +4,7 @@
  * pseudo-terminal, so any G-code sender can connect as if to a board.
  *
  *   plotkin serve [--link PATH] [--speed N] [--device PATH --baud N] [--eeprom FILE]
+ *                 [--input T:NAME=V] [--switch NAME:AXIS:MM[:-]]
  *
  * The simulated clock follows the wall clock times N (--speed). Each loop
  * iteration moves bytes between the pty and the UART shim (the "RX/TX
@@ -15,24 +16,20 @@
  * simulation runs as fast as it can and the lag is reported, never
  * accumulated.
  *
- * The pty survives client disconnects (we hold our own slave fd open), so a
- * sender can disconnect and reconnect. serve counts the clients that have the
- * pty open (inotify IN_OPEN / IN_CLOSE on the slave's inode; our own slave fd
- * was opened before the watch) and drops output only once nobody has had the
- * pty open for a whole second: a sender that reconnects at once still gets
- * the answers to what it sent, a client connecting later does not start with
- * stale lines, and a client that is merely slow never loses a byte (a lost
- * `ok` would hang a character-counting sender). The events are read at the
- * top of every loop iteration, before the line is read, and a client's open
- * is queued before anything it writes, so its first answer is never dropped.
- * When the last client closes the pty, whatever it sent is still read and
- * executed up to its last complete line, and its unfinished line is dropped
- * (pk_grbl_drop_partial_line) before a byte of the next client is read: a
- * half "G0 X1" is never glued to the next client's "0 Y5". (Grbl boards get
- * the same from the reset a port open gives them.)
+ * The serial side (a pty that survives client disconnects, with a stable
+ * --link, or a real device; output nobody read is dropped only after a whole
+ * second without any client; when the last client closes, what it sent is
+ * still read and executed up to its last complete line and its unfinished
+ * line is dropped with pk_grbl_drop_partial_line, so a half "G0 X1" is never
+ * glued to the next client's "0 Y5") is hal/posix/pk_serve_port.h, shared
+ * with the Linux board's `plotkin-gpiod serve`.
  * --eeprom FILE keeps the settings, offsets and startup lines in FILE (the
  * board's EEPROM: hal/posix/pk_nvm_file.h) across runs; without it they
  * start from the defaults every time.
+ * --input / --switch give the machine input lines as in `plotkin sim`
+ * (sim_inputs.h; a switch's mm are turned into steps with the default
+ * steps/mm, an edge's seconds count from the start of the session); the Grbl
+ * settings act on them ($21=1 hard limits, $H, G38.x, Pn:).
  * SIGINT/SIGTERM stop it cleanly and a summary is printed.
  *
  * The machine is `plotkin sim`'s (host-sim/serve_sim.h): the libgpiod backend
@@ -45,8 +42,6 @@
 #define _XOPEN_SOURCE 700
 #include <errno.h>
 #include <poll.h>
-#include <sys/inotify.h>
-#include <unistd.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -54,9 +49,10 @@
 #include <time.h>
 #include "commands.h"
 #include "serve_sim.h"
+#include "sim_inputs.h"
 #include "sim_report.h"
 #include "posix/pk_nvm_file.h"
-#include "posix/pk_serial.h"
+#include "posix/pk_serve_port.h"
 
 #define TICK_HZ 1000000u
 
@@ -86,6 +82,8 @@ static void usage(FILE *f)
           "  --device PATH  serve on a real serial device instead of a pty (raw mode)\n"
           "  --baud N       baud rate for --device (default 115200)\n"
           "  --eeprom FILE  keep settings, offsets and startup lines in FILE across runs\n"
+          "  --input T:NAME=V, --switch NAME:AXIS:MM[:-]  input lines, as in plotkin sim\n"
+          "                 (then $21=1 hard limits, $H, G38.x and Pn: act on them)\n"
           "Stops on SIGINT/SIGTERM and prints a summary.\n",
           f);
 }
@@ -103,6 +101,7 @@ static const char *state_name(int st)
 
 int cmd_serve(int argc, char **argv)
 {
+    static struct pk_sim_inputs inputs;
     const char *link = NULL, *device = NULL, *eeprom = NULL;
     long speed = 1, baud = 115200;
     for (int i = 1; i < argc; i++) {
@@ -115,6 +114,13 @@ int cmd_serve(int argc, char **argv)
             device = argv[++i];
         } else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc) {
             eeprom = argv[++i];
+        } else if ((!strcmp(argv[i], "--input") || !strcmp(argv[i], "--switch")) && i + 1 < argc) {
+            char ierr[160];
+            if (pk_sim_inputs_add(&inputs, argv[i], argv[i + 1], ierr, sizeof ierr) != 0) {
+                fprintf(stderr, "plotkin serve: %s\n", ierr);
+                return 2;
+            }
+            i++;
         } else if ((!strcmp(argv[i], "--speed") || !strcmp(argv[i], "--baud")) && i + 1 < argc) {
             char *end;
             long v = strtol(argv[i + 1], &end, 10);
@@ -147,7 +153,11 @@ int cmd_serve(int argc, char **argv)
     }
     struct pk_serve_sim *sim = calloc(1, sizeof *sim);
     const struct pk_timing_limits lim = PK_TIMING_DRV8825;
-    if (sim == NULL || pk_serve_sim_start_nvm(sim, "plotkin-serve0", &lim, nvmp) != 0) {
+    struct pk_sim_cfg dcfg;
+    pk_sim_cfg_default(&dcfg);
+    pk_sim_inputs_resolve(&inputs, dcfg.tick_hz, dcfg.steps_per_mm);
+    if (sim == NULL ||
+        pk_serve_sim_start_in(sim, "plotkin-serve0", &lim, nvmp, inputs.in, inputs.n) != 0) {
         fprintf(stderr, "plotkin serve: cannot initialise the machine%s%s\n", sim ? ": " : "",
                 sim ? sim->r.err : "");
         if (sim)
@@ -155,83 +165,37 @@ int cmd_serve(int argc, char **argv)
         free(sim);
         return 1;
     }
-    struct pk_serial ser;
-    int rc = device ? pk_serial_open(&ser, device, (uint32_t)baud) : pk_serial_open_pty(&ser, link);
+    struct pk_serve_port port;
+    int rc = pk_serve_port_open(&port, device, (uint32_t)baud, link, stderr);
     if (rc != 0) {
         fprintf(stderr, "plotkin serve: %s: %s\n", device ? device : "pty", strerror(-rc));
         pk_serve_sim_free(sim);
         free(sim);
         return 1;
     }
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    signal(SIGPIPE, SIG_IGN);
+    struct pk_serial *ser = &port.ser;
+    pk_serve_port_signals(on_signal);
 
     if (device)
-        printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser.path, baud);
+        printf("plotkin serve: Grbl 1.1 on %s at %ld baud\n", ser->path, baud);
     else if (link)
-        printf("plotkin serve: Grbl 1.1 on %s (link %s), speed x%ld\n", ser.path, link, speed);
+        printf("plotkin serve: Grbl 1.1 on %s (link %s), speed x%ld\n", ser->path, link, speed);
     else
-        printf("plotkin serve: Grbl 1.1 on %s, speed x%ld\n", ser.path, speed);
+        printf("plotkin serve: Grbl 1.1 on %s, speed x%ld\n", ser->path, speed);
     fflush(stdout);
 
     uint64_t t0 = now_ns(), wall_start = t0;
     uint64_t sim_base = 0, lag_events = 0;
-    /* A client opening the slave is what makes unread output stale. */
-    int opens = device ? -1 : inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
-    unsigned long clients = 0, connections = 0;
-    uint64_t alone_since = 0; /* wall ns since the pty has had no client; 0: has one */
-    if (opens >= 0 && inotify_add_watch(opens, ser.path, IN_OPEN | IN_CLOSE) < 0) {
-        close(opens);
-        opens = -1;
-    }
-    if (!device && opens < 0)
-        fprintf(stderr, "plotkin serve: inotify unavailable (%s): a reconnecting client may "
-                        "see answers meant for the previous one\n", strerror(errno));
-    int io_error = 0, sim_error = 0, draining = 0;
+    int io_error = 0, sim_error = 0;
     while (!serve_stop) {
-        if (opens >= 0) {
-            char evbuf[16 * (sizeof(struct inotify_event) + 16)]
-                __attribute__((aligned(__alignof__(struct inotify_event))));
-            ssize_t n;
-            while ((n = read(opens, evbuf, sizeof evbuf)) > 0) {
-                for (char *q = evbuf; q < evbuf + n;) {
-                    const struct inotify_event *e = (const struct inotify_event *)(void *)q;
-                    if (e->mask & IN_OPEN) {
-                        if (clients++ == 0)
-                            connections++;
-                    }
-                    if ((e->mask & IN_CLOSE) && clients > 0 && --clients == 0) {
-                        /* the last client left: read what it sent before it
-                         * closed, then drop its unfinished line */
-                        ser.rx_allow = (long)pk_serial_pending(&ser);
-                        draining = 1;
-                    }
-                    q += sizeof *e + e->len;
-                }
-            }
-            if (clients > 0)
-                alone_since = 0;
-            else if (alone_since == 0)
-                alone_since = now_ns();
-            else if (now_ns() - alone_since >= 1000000000ull)
-                pk_serial_discard_unread(&ser); /* nobody has been there for 1 s */
-        }
-        if (draining && ser.rx_allow == 0 && pk_uart_rx_used(&sim->uart) == 0) {
-            pk_grbl_drop_partial_line(&sim->g);
-            ser.rx_allow = -1;
-            draining = 0;
-        }
-        uint64_t rx0 = ser.rx_bytes;
-        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+        rc = pk_serve_port_pump(&port, &sim->uart);
+        if (rc < 0) {
             io_error = 1;
             break;
         }
-        if (ser.rx_bytes != rx0)
+        if (rc & PK_SERVE_PORT_LEFT)
+            pk_grbl_drop_partial_line(&sim->g); /* before a byte of the next client */
+        if (rc & PK_SERVE_PORT_RX)
             pk_serve_sim_wake(sim); /* the receive interrupt wakes the main loop */
         uint64_t now = pk_serve_sim_now(sim);
         uint64_t target = sim_base + (now_ns() - t0) / 1000u * (uint64_t)speed * (TICK_HZ / 1000000u);
@@ -244,7 +208,7 @@ int cmd_serve(int argc, char **argv)
             break;
         }
         pk_grbl_poll(&sim->g);
-        if (pk_serial_pump(&ser, &sim->uart) != 0) {
+        if (pk_serial_pump(ser, &sim->uart) != 0) {
             io_error = 1;
             break;
         }
@@ -259,7 +223,7 @@ int cmd_serve(int argc, char **argv)
             continue;
         }
         if (pk_serve_sim_now(sim) >= now_target) {
-            struct pollfd p = { ser.fd, POLLIN, 0 };
+            struct pollfd p = { ser->fd, POLLIN, 0 };
             poll(&p, 1, 1);
         }
     }
@@ -275,8 +239,8 @@ int cmd_serve(int argc, char **argv)
            st->errors, st->moves, st->resets);
     printf("  serial: %llu bytes in, %llu bytes out, %u bytes lost to overflow, "
            "%llu client connections\n",
-           (unsigned long long)ser.rx_bytes, (unsigned long long)ser.tx_bytes,
-           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)connections);
+           (unsigned long long)ser->rx_bytes, (unsigned long long)ser->tx_bytes,
+           (unsigned)pk_uart_rx_dropped(&sim->uart), (unsigned long long)port.connections);
     printf("  state %s, position X%.3f Y%.3f Z%.3f mm\n", state_name(pk_machine_state(&sim->r.m)),
            pos[0] / 1000.0, pos[1] / 1000.0, PK_AXES > 2 ? pos[PK_AXES - 1] / 1000.0 : 0.0);
     /* The simulated machine's own report, as `plotkin sim` prints it. */
@@ -287,9 +251,7 @@ int cmd_serve(int argc, char **argv)
         printf("  (no machine summary: %s)\n", sim->r.err);
     }
     fflush(stdout);
-    if (opens >= 0)
-        close(opens);
-    pk_serial_close(&ser);
+    pk_serve_port_close(&port);
     pk_serve_sim_free(sim);
     free(sim);
     pk_nvm_file_close(&nvf);

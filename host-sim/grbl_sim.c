@@ -9,6 +9,8 @@ static int start(struct pk_grbl_sim *s, const struct pk_grbl_settings *set)
 {
     pk_rec_init(&s->rec, s->tick_hz);
     s->rec.record = 0;
+    if (s->inputs)
+        pk_rec_inputs(&s->rec, s->inputs, 0, s->input_edges);
     memset(&s->m, 0, sizeof s->m);
     memset(&s->gm, 0, sizeof s->gm);
     s->gm.m = &s->m;
@@ -29,6 +31,17 @@ int pk_grbl_sim_init(struct pk_grbl_sim *s, uint32_t tick_hz, const struct pk_gr
     memset(s, 0, sizeof *s);
     s->tick_hz = tick_hz;
     memset(s->nvm_buf, 0xff, sizeof s->nvm_buf); /* an erased EEPROM */
+    return start(s, set);
+}
+
+int pk_grbl_sim_init_inputs(struct pk_grbl_sim *s, uint32_t tick_hz,
+                            const struct pk_grbl_settings *set, uint32_t inputs, int edges)
+{
+    memset(s, 0, sizeof *s);
+    s->tick_hz = tick_hz;
+    s->inputs = inputs;
+    s->input_edges = edges;
+    memset(s->nvm_buf, 0xff, sizeof s->nvm_buf);
     return start(s, set);
 }
 

@@ -36,11 +36,20 @@ struct pk_grbl_sim {
     uint8_t nvm_buf[PK_GRBL_NVM_BYTES]; /**< the "EEPROM" (kept by restart) */
     struct pk_grbl_ram_nvm ram;
     uint32_t tick_hz;
+    uint32_t inputs;      /**< input lines of the HAL (PK_IN_* bits; 0: none) */
+    int input_edges;      /**< 1: the HAL reports edges; 0: the core reads */
 };
 
 /** Build and start (greeting queued) with an erased store. set: the settings
  *  (NULL: the store's, i.e. the defaults). tick_hz e.g. 1000000. 0 or -1. */
 int pk_grbl_sim_init(struct pk_grbl_sim *s, uint32_t tick_hz, const struct pk_grbl_settings *set);
+
+/** As pk_grbl_sim_init, on a HAL with input lines `inputs` (PK_IN_* bits,
+ *  active high, all inactive; edges as pk_rec_inputs). Script them on s->rec
+ *  with pk_rec_input_at / pk_rec_add_switch. Restart keeps the lines (not
+ *  the script). 0 or -1. */
+int pk_grbl_sim_init_inputs(struct pk_grbl_sim *s, uint32_t tick_hz,
+                            const struct pk_grbl_settings *set, uint32_t inputs, int edges);
 
 /** Power-cycle: a new machine at position 0 and a new engine, the store kept
  *  (settings come from it). 0 or -1. */

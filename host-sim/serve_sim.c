@@ -46,6 +46,24 @@ static int read_uart(void *ctx, uint8_t *buf, size_t len)
 
 static size_t rx_used(void *ctx) { return pk_uart_rx_used_cb(&((struct pk_serve_sim *)ctx)->uart); }
 
+/* The engine's primitives into the simulator's programmed path, as `plotkin
+ * sim` feeds them (sim_job.c), so that the summary has the deviation of the
+ * session. The line is the session's (1 = the first line received). The
+ * window is not waited for (a sender cannot be made to wait for it); should
+ * it be full, the oldest primitive goes early and the summary says that the
+ * figures are upper bounds (forced_drops). */
+static void serve_observe(void *ctx, const struct pk_grbl_prim *g)
+{
+    struct pk_serve_sim *s = ctx;
+    struct pk_sim_job *j = &s->r.job;
+    if (j->obs.on_prim == NULL)
+        return;
+    struct pk_path_prim p;
+    pk_sim_prim_from_grbl(g, &j->pen_cfg, &p);
+    p.line = g->line;
+    j->obs.on_prim(j->obs.arg, &p);
+}
+
 /* One main-loop iteration of the board's firmware: protocol, then motion. */
 static int serve_main(void *arg, uint64_t now)
 {
@@ -76,10 +94,17 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
 int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
                            const struct pk_grbl_nvm *nvm_in)
 {
+    return pk_serve_sim_start_in(s, chip, lim, nvm_in, NULL, 0);
+}
+
+int pk_serve_sim_start_in(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                          const struct pk_grbl_nvm *nvm_in, const struct pk_sim_input *in, size_t n_in)
+{
     memset(s, 0, sizeof *s);
     pk_sim_cfg_default(&s->cfg);
     struct pk_sim_opts o = { .chip = chip, .cfg = &s->cfg, .program = "", .len = 0, .lim = *lim,
-                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s };
+                             .max_ticks = UINT64_MAX / 2u, .main_fn = serve_main, .main_arg = s,
+                             .inputs = in, .n_inputs = n_in };
     if (pk_sim_start(&o, &s->r) != 0)
         return -1;
     /* A server is never "stuck": it waits for its sender as long as it takes. */
@@ -112,6 +137,7 @@ int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struc
         snprintf(s->r.err, sizeof s->r.err, "the Grbl engine could not configure the machine");
         return -1;
     }
+    pk_grbl_set_observer(&s->g, serve_observe, s);
     return 0;
 }
 

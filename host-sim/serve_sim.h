@@ -4,10 +4,12 @@
  * the SAME simulated machine as `plotkin sim` (host-sim/sim_run.h: libgpiod
  * backend on the mock GPIO chip, simulated clock and scheduler, pin trace
  * decoded on the fly with the driver's timing checks). So the summary on exit
- * is `plotkin sim`'s (sim_report.h), measured from the pins the same way.
+ * is `plotkin sim`'s (sim_report.h), measured from the pins the same way,
+ * the path deviation included (the engine's observer feeds the programmed
+ * path as in `plotkin sim`; lines are the session's, 1 = the first received).
  *
  * Memory stays flat however long the session: no pin edge, decoded step or
- * executed path is kept (the decoder measures as the edges happen); only the
+ * executed path is kept (the programmed path lives in its fixed window) (the decoder measures as the edges happen); only the
  * list of timing violations grows, by one entry per violation.
  *
  * Single-threaded. Storage is caller-owned and large (heap or static).
@@ -46,6 +48,13 @@ int pk_serve_sim_start(struct pk_serve_sim *s, const char *chip, const struct pk
  *  hal/posix/pk_nvm_file.h), or NULL for an erased RAM one. */
 int pk_serve_sim_start_nvm(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
                            const struct pk_grbl_nvm *nvm);
+
+/** The same on a machine with input lines: scripted edges and switches
+ *  along the axes (sim_machine.h; they must outlive s), as `plotkin sim
+ *  --input/--switch` (NULL, 0: none). The Grbl settings then act on them
+ *  ($21 hard limits, $H, G38.x, Pn:). */
+int pk_serve_sim_start_in(struct pk_serve_sim *s, const char *chip, const struct pk_timing_limits *lim,
+                          const struct pk_grbl_nvm *nvm, const struct pk_sim_input *in, size_t n_in);
 
 /**
  * Run the firmware (engine main loop, machine poll, step-timer callbacks at

@@ -167,7 +167,7 @@ static const char *stored_only(int idx)
     case PK_GRBL_S_LIMIT_INVERT: case PK_GRBL_S_PROBE_INVERT: case PK_GRBL_S_HARD_LIMITS:
     case PK_GRBL_S_HOMING_DIR: case PK_GRBL_S_HOMING_FEED: case PK_GRBL_S_HOMING_SEEK:
     case PK_GRBL_S_HOMING_DEBOUNCE: case PK_GRBL_S_HOMING_PULLOFF:
-        return "stored: no limit switch or probe inputs yet";
+        return "acts only with --switch/--input inputs ($21: use --hard-limits)";
     case PK_GRBL_S_REPORT_MASK: case PK_GRBL_S_REPORT_INCHES:
         return "status reports only";
     default: return NULL;
@@ -709,6 +709,8 @@ static void job_start_engine(struct pk_sim_job *j)
     struct pk_grbl_settings set;
     if (pk_sim_cfg_to_grbl(j->cfg, &set, NULL, 0) != 0)
         pk_grbl_settings_default(&set);
+    if (j->m->hard_limits)
+        set.v[PK_GRBL_S_HARD_LIMITS] = 1; /* the machine was given hard limits: Grbl's $21=1 */
     j->gm.set = set;
     memset(j->nvm_buf, 0xff, sizeof j->nvm_buf);
     j->ram.buf = j->nvm_buf;

@@ -22,6 +22,12 @@
  *   @setting <text>   send "$$" and check that one of its lines is text (the
  *                     listing is left out of the transcript)
  *   @restart          power cycle (the settings store is kept)
+ *   @inputs           (first line only) the machine has input lines: limit
+ *                     switches X Y Z, probe, door, hold, resume, reset
+ *   @switch <line> <axis> <side> <mm>  input line (enum pk_hal_input) active
+ *                     while axis (0 X, 1 Y, 2 Z) is at mm or beyond (side +1:
+ *                     above, -1: below), from now on
+ *   @edge <ms> <line> <level>  input line takes level (0/1) ms from now
  * The transcript is every non-empty line the machine sent except status
  * reports, joined with '|'; the greeting shows as "Grbl". Every session
  * starts with one '?' whose report (the first one always carries WCO:) is
@@ -101,11 +107,13 @@ static int run_until_answer(void)
     return 0;
 }
 
-static void start(void)
+#define ALL_INPUTS (((1u << PK_IN_COUNT) - 1u) & ~(1u << PK_IN_LIMIT_A))
+
+static void start(uint32_t inputs)
 {
     pk_grbl_sim_free(&S);
     memset(&S, 0, sizeof S);
-    if (pk_grbl_sim_init(&S, 1000000, NULL) != 0)
+    if (pk_grbl_sim_init_inputs(&S, 1000000, NULL, inputs, 1) != 0)
         th_fail(__FILE__, __LINE__, "grbl_sim_init");
     outn = 0;
     out[0] = 0;
@@ -168,7 +176,10 @@ static int setting_listed(const char *text)
 /* Play script; check the transcript equals expect. */
 static void play(const char *script, const char *expect)
 {
-    start();
+    int with_inputs = strncmp(script, "@inputs\n", 8) == 0;
+    if (with_inputs)
+        script += 8;
+    start(with_inputs ? ALL_INPUTS : 0u);
     (void)status_query();
     char line[512];
     for (const char *p = script; *p;) {
@@ -222,6 +233,20 @@ static void play(const char *script, const char *expect)
                 th_print(msg);
                 th_fail(__FILE__, __LINE__, "answer time");
             }
+        } else if (strncmp(line, "@switch ", 8) == 0) {
+            unsigned in = 0, axis = 0;
+            int side = 0;
+            double mm = 0;
+            if (sscanf(line + 8, "%u %u %d %lf", &in, &axis, &side, &mm) != 4 ||
+                pk_rec_add_switch(&S.rec, in, axis, side, (int32_t)(mm * 80.0)) != 0)
+                th_fail(__FILE__, __LINE__, "@switch");
+        } else if (strncmp(line, "@edge ", 6) == 0) {
+            long ms = 0;
+            unsigned in = 0;
+            int level = 0;
+            if (sscanf(line + 6, "%ld %u %d", &ms, &in, &level) != 3 ||
+                pk_rec_input_at(&S.rec, S.rec.now + (uint64_t)ms * 1000u, in, level) != 0)
+                th_fail(__FILE__, __LINE__, "@edge");
         } else if (strcmp(line, "@restart") == 0) {
             if (pk_grbl_sim_restart(&S) != 0)
                 th_fail(__FILE__, __LINE__, "restart");
@@ -356,6 +381,24 @@ ROW(g38_probing_is_refused_loudly_without_a_probe_input,
     "ok|[MSG:No probe input: G38 is not supported by this machine]|error:20|"
     "[MSG:No probe input: G38 is not supported by this machine]|error:20|"
     "[MSG:No probe input: G38 is not supported by this machine]|error:20|error:20")
+
+ROW(g38_probing_records_the_contact_and_raises_alarms_4_and_5,
+    "@inputs\n"
+    "@switch 4 2 -1 -5\n"           /* a touch plate: the probe closes at Z = -5 mm */
+    "G21 G90 G38.2 Z-10 F100\n"
+    "@status Pn:P\n"
+    "G38.2 Z-20\n"                  /* already touching */
+    "G0 Z0\n"
+    "$X\n"
+    "G0 Z0\n"
+    "G38.2 Z-2\n"                   /* no contact: the last contact, :0 */
+    "$X\n"
+    "G38.3 Z-2\n"                   /* already there: error:33, as Grbl */
+    "G38.3 Z-3\n"                   /* no contact, no error: where it ended */
+    "@wait\n@status MPos:0.000,0.000,-3.000\n",
+    "[PRB:0.000,0.000,-5.000:1]|ok|ALARM:4|ok|error:9|[MSG:Caution: Unlocked]|ok|ok|"
+    "ALARM:5|[PRB:0.000,0.000,-5.000:0]|ok|[MSG:Caution: Unlocked]|ok|"
+    "error:33|[PRB:0.000,0.000,-3.000:0]|ok")
 
 ROW(g40_is_accepted_and_cutter_compensation_is_not,
     "G40\nG41\nG42 D1\n",
@@ -551,6 +594,39 @@ ROW(safety_door_0x84_is_a_feed_hold_on_a_machine_without_a_door,
     "@wait\n@status MPos:20.000,0.000,0.000\n",
     "ok|[MSG:No safety door: feed hold only, the tool stays as it is]")
 
+ROW(safety_door_input_holds_and_blocks_resume_while_open,
+    "@inputs\n"
+    "G21 G90 G1 X20 F300\n"
+    "@ms 300\n"
+    "@edge 0 5 1\n"                 /* the door opens (Grbl: Door:N, tool cut) */
+    "@ms 500\n@status <Hold:0|\n@status Pn:D\n"
+    "@raw ~\n"                      /* no resume while it is open */
+    "@status <Hold:0|\n"
+    "@edge 0 5 0\n@ms 10\n"
+    "@raw ~\n"
+    "@wait\n@status MPos:20.000,0.000,0.000\n",
+    "ok|[MSG:Door open: feed hold only, the tool stays as it is]")
+
+ROW(buttons_hold_resume_and_reset_act_as_their_realtime_bytes,
+    "@inputs\n"
+    "G21 G90 G1 X20 F600\n"
+    "@edge 300 6 1\n@edge 350 6 0\n" /* feed hold button */
+    "@ms 900\n@status <Hold:0|\n"
+    "@edge 0 7 1\n@edge 50 7 0\n"  /* cycle start button */
+    "@ms 100\n@status <Run|\n"
+    "@edge 0 8 1\n@edge 50 8 0\n"  /* reset button while moving */
+    "@ms 100\n@status <Alarm|\n",
+    "ok|ALARM:3|Grbl|[MSG:'$H'|'$X' to unlock]")
+
+ROW(status_report_pn_lists_the_active_inputs_in_grbl_s_order,
+    "@inputs\n"
+    "@nostatus Pn:\n"
+    "@edge 0 4 1\n@edge 0 1 1\n@edge 0 0 1\n@edge 0 7 1\n@ms 10\n"
+    "@status |Pn:PXYS\n"
+    "@edge 0 4 0\n@edge 0 1 0\n@edge 0 0 0\n@edge 0 7 0\n@ms 10\n"
+    "@nostatus Pn:\n",
+    "")
+
 ROW(jog_cancel_0x85_stops_a_jog_and_flushes_it,
     "$J=G91 X50 F600\n"
     "@ms 500\n"
@@ -632,6 +708,22 @@ ROW(dollar_h_homing_is_refused_loudly_without_limit_switches,
     "error:5|[MSG:No limit switches: $H cannot run, $X unlocks]|ok|"
     "[MSG:No limit switches: $H is not supported by this machine]|error:5")
 
+ROW(dollar_h_homing_runs_grbl_s_cycle_on_the_switches,
+    "@inputs\n"
+    "@switch 0 0 1 20\n@switch 1 1 1 10\n@switch 2 2 1 2\n" /* toward +: $23=0 */
+    "$H\n"                          /* $22=0 */
+    "$22=1\n"
+    "$N0=G91\n"
+    "$H\n"                          /* Z first, then X and Y; the startup lines, then ok */
+    "@status <Idle|MPos:-1.000,-1.000,-1.000\n" /* machine 0 is the switch, -$27 */
+    "$HX\n"                         /* no single-axis homing in Grbl's default build */
+    "@restart\n"
+    "G0 X0\n"                       /* $22=1 locks at power-on */
+    "@switch 0 0 1 1000\n"          /* X's switch out of reach: 1.5 x $130 */
+    "$H\n",
+    "error:5|ok|ok|>G91:ok|ok|error:3|Grbl|[MSG:'$H'|'$X' to unlock]|error:9|"
+    "ALARM:9|ok|Grbl|[MSG:'$H'|'$X' to unlock]")
+
 ROW(dollar_j_jogs_with_grbl_s_rules,
     "$J=G91 X1 F600\n"
     "@wait\n@status MPos:1.000,0.000,0.000\n"
@@ -700,11 +792,30 @@ ROW(negative_moves_run_with_soft_limits_off,
     "@wait\n@status MPos:-25.000,0.000,0.000\n",
     "ok|ok|ok|ok")
 
-ROW(hard_limits_and_homing_settings_are_stored_and_reported,
-    "$21=1\n$23=3\n$24=50\n$25=1000\n$26=100\n$27=2\n"
-    "@setting $21=1\n@setting $23=3\n@setting $24=50.000\n@setting $25=1000.000\n"
+ROW(hard_limits_are_refused_without_switches_homing_settings_stored,
+    "$21=1\n$23=3\n$24=50\n$25=1000\n$26=100\n$27=2\n"   /* Grbl: $21=1 ok */
+    "@setting $21=0\n@setting $23=3\n@setting $24=50.000\n@setting $25=1000.000\n"
     "@setting $26=100\n@setting $27=2.000\n",
-    "[MSG:No limit switches: hard limits stored, not active]|ok|ok|ok|ok|ok|ok")
+    "[MSG:No limit switches: $21=1 refused]|error:3|ok|ok|ok|ok|ok")
+
+ROW(hard_limits_21_a_switch_mid_move_is_alarm_1_until_reset,
+    "@inputs\n"
+    "@switch 0 0 1 40\n"           /* X's switch at 40 mm */
+    "$21=1\n"
+    "G21 G90 G1 X100 F3000\n"
+    "@ms 1500\n"
+    "@status <Alarm|MPos:40.000,0.000,0.000|FS:0,0|Pn:X\n" /* stopped on the step that closed it */
+    "@raw G0 X0\r\n"               /* not read: only '?' and reset */
+    "@raw \x18\n"
+    "@status MPos:40.000,0.000,0.000\n"
+    "G0 X0\n"
+    "$X\n"
+    "G0 X10\n"                      /* off the switch (Grbl trips on an edge only) */
+    "@wait\n@status <Idle|MPos:10.000,0.000,0.000|FS:0,0|\n"
+    "G0 X50\n"                      /* re-armed once the switch opened */
+    "@wait\n@status <Alarm|MPos:40.000,0.000,0.000\n",
+    "ok|ok|ALARM:1|[MSG:Reset to continue]|Grbl|[MSG:Check Limits]|[MSG:'$H'|'$X' to unlock]|"
+    "error:9|[MSG:Caution: Unlocked]|ok|ok|ok|ALARM:1|[MSG:Reset to continue]")
 
 ROW(laser_mode_32_runs_g1_at_s_and_g0_with_the_output_off,
     "$32=1\n"
@@ -768,7 +879,13 @@ int th_main(int argc, char **argv)
         TH_CASE(settings_offsets_and_startup_lines_survive_a_restart),
         TH_CASE(soft_limits_need_homing_and_alarm_2_on_a_move_out_of_travel),
         TH_CASE(negative_moves_run_with_soft_limits_off),
-        TH_CASE(hard_limits_and_homing_settings_are_stored_and_reported),
+        TH_CASE(hard_limits_are_refused_without_switches_homing_settings_stored),
+        TH_CASE(hard_limits_21_a_switch_mid_move_is_alarm_1_until_reset),
+        TH_CASE(dollar_h_homing_runs_grbl_s_cycle_on_the_switches),
+        TH_CASE(g38_probing_records_the_contact_and_raises_alarms_4_and_5),
+        TH_CASE(safety_door_input_holds_and_blocks_resume_while_open),
+        TH_CASE(buttons_hold_resume_and_reset_act_as_their_realtime_bytes),
+        TH_CASE(status_report_pn_lists_the_active_inputs_in_grbl_s_order),
         TH_CASE(laser_mode_32_runs_g1_at_s_and_g0_with_the_output_off),
     };
     return th_run(cases, TH_COUNT(cases));

@@ -2,8 +2,8 @@
  * test_serve_sim.c — the machine behind `plotkin serve` (host-sim/serve_sim.h)
  * is `plotkin sim`'s: a program sent line by line to the Grbl engine ends on
  * exactly the steps `plotkin sim` decodes for the same program, with the
- * same timing checks, and the summary's counters (lines, errors by line,
- * alarms) come from the session. Deterministic: simulated time only.
+ * same timing checks and the same path deviation, and the summary's counters
+ * (lines, errors by line, alarms) come from the session. Deterministic: simulated time only.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -80,8 +80,82 @@ static void test_a_program_sent_to_serve_ends_on_the_steps_plotkin_sim_decodes(v
     TH_EXPECT(s.r.hw.trace.n > 1000u); /* edges seen ... */
     TH_ASSERT_EQ(s.r.hw.trace.cap, 0u); /* ... none kept */
     TH_ASSERT_EQ(s.r.dec.n_ev, 0u);
-    TH_ASSERT_EQ(s.r.prog.st.stored, 0u); /* the engine hands no path to the simulator yet */
+    /* the path deviation: the same programmed path as `plotkin sim`'s, the
+     * same executed steps, hence the same figures, bit for bit; the corners
+     * rounded within G64 P0.02 give a deviation that is not 0 */
+    TH_EXPECT(s.r.prog.st.points > 0u);
+    TH_EXPECT(s.r.deviation_um > 0.0 && s.r.deviation_um <= 20.0 + 1.0);
+    TH_EXPECT(s.r.deviation_um == ref.deviation_um);
+    TH_EXPECT(s.r.deviation_p95_um == ref.deviation_p95_um);
+    TH_EXPECT_EQ(s.r.prog.st.forced_drops, 0u);
+    TH_EXPECT_EQ(s.r.prog.st.max_line, ref.prog.st.max_line);
     pk_sim_result_free(&ref);
+    pk_serve_sim_free(&s);
+}
+
+/* Everything the engine sent since the last call, appended to buf. */
+static void collect(struct pk_serve_sim *s, char *buf, size_t cap, size_t *n)
+{
+    uint8_t b[64];
+    size_t k;
+    while ((k = pk_uart_tx_pop(&s->uart, b, sizeof b)) > 0) {
+        if (*n + k + 1 < cap) {
+            memcpy(buf + *n, b, k);
+            *n += k;
+            buf[*n] = 0;
+        }
+    }
+}
+
+/* Run (1 ms slices) until text has come after from, at most ms. */
+static int run_for(struct pk_serve_sim *s, char *buf, size_t cap, size_t *n, size_t from,
+                   const char *text, int ms)
+{
+    for (int i = 0; i < ms; i++) {
+        if (strstr(buf + from, text) != NULL)
+            return 1;
+        if (pk_serve_sim_run(s, 1000) != 0)
+            return 0;
+        collect(s, buf, cap, n);
+    }
+    return strstr(buf + from, text) != NULL;
+}
+
+static void test_hard_limit_and_probe_through_the_gpiod_backend_on_the_mock_chip(void)
+{
+    static struct pk_serve_sim s;
+    static char buf[1 << 14];
+    size_t n = 0, from;
+    const struct pk_timing_limits lim = PK_TIMING_DRV8825;
+    /* X's limit switch at 40 mm, a touch plate under Z at -2 mm (80 steps/mm) */
+    static const struct pk_sim_input in[] = {
+        { .is_switch = 1, .input = PK_IN_LIMIT_X, .axis = 0, .side = +1, .at_steps = 3200 },
+        { .is_switch = 1, .input = PK_IN_PROBE, .axis = 2, .side = -1, .at_steps = -160 },
+    };
+    TH_ASSERT_EQ(pk_serve_sim_start_in(&s, "test-serve-in", &lim, NULL, in, 2), 0);
+    send_all(&s, "$21=1\nG21 G90 G38.2 Z-5 F100\n");
+    from = n;
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, 0, ":1]\r\nok\r\n", 20000));
+    TH_EXPECT(strstr(buf, "[PRB:0.000,0.000,-2.000:1]\r\nok\r\n") != NULL);
+    send_all(&s, "G0 Z0\nG1 X100 Y20 F3000\n");
+    from = n;
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, from, "[MSG:Reset to continue]\r\n", 20000));
+    TH_EXPECT(strstr(buf + from, "ALARM:1\r\n[MSG:Reset to continue]\r\n") != NULL);
+    for (int i = 0; i < 500; i++)
+        TH_ASSERT_EQ(pk_serve_sim_run(&s, 1000), 0);
+    /* the pins (decoded from the mock chip's trace) stopped on the switch */
+    TH_EXPECT_EQ(s.r.dec.pos[0], 3200);
+    TH_EXPECT_EQ(s.r.dec.pos[1], 640);
+    from = n;
+    send_all(&s, "?");
+    TH_ASSERT(run_for(&s, buf, sizeof buf, &n, from, ">\r\n", 100));
+    char want[64];
+    snprintf(want, sizeof want, "<Alarm|MPos:%.3f,%.3f,%.3f|", s.r.dec.pos[0] / 80.0,
+             s.r.dec.pos[1] / 80.0, s.r.dec.pos[2] / 80.0);
+    TH_EXPECT(strstr(buf + from, want) != NULL);
+    TH_EXPECT(strstr(buf + from, "Pn:X") != NULL);
+    TH_ASSERT_EQ(pk_serve_sim_finish(&s), 0);
+    TH_EXPECT_EQ(s.r.job.alarms, 1ul);
     pk_serve_sim_free(&s);
 }
 
@@ -91,6 +165,7 @@ int th_main(int argc, char **argv)
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_a_program_sent_to_serve_ends_on_the_steps_plotkin_sim_decodes),
+        TH_CASE(test_hard_limit_and_probe_through_the_gpiod_backend_on_the_mock_chip),
     };
     return th_run(cases, TH_COUNT(cases));
 }

@@ -40,6 +40,21 @@ static int group_write(struct pk_gpiod *g, enum pk_gpiod_group grp, uint32_t mas
 
     if (!g->opened)
         return PK_HAL_EINVAL;
+    /* A step or a direction change on an axis the board wires no line for
+     * (the Grbl engine speaks X Y Z; a plotter board wires X Y): refused, so
+     * the machine alarms instead of counting moves no motor makes. */
+    uint32_t unwired = (grp == PK_GPIOD_STEP || grp == PK_GPIOD_DIR) ? levels & mask & ~group_bits(g, grp)
+                                                                     : 0u;
+    if (unwired != 0u) {
+        unsigned a = 0;
+        while (((unwired >> a) & 1u) == 0u)
+            a++;
+        snprintf(g->err, sizeof g->err,
+                 "gpiod: axis %c would move, but the board wires no %s line for it (%u axes)",
+                 "XYZABCDEFGHIJKLMNOPQRSTUVW"[a < 26u ? a : 25u], group_name[grp], n);
+        set_failure(g, OP_CONFIG, grp, -EINVAL);
+        return PK_HAL_EINVAL;
+    }
     if (n == 0u)
         return PK_HAL_OK; /* optional group not wired: nothing to drive */
     mask &= group_bits(g, grp);

@@ -41,6 +41,7 @@ static int op_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t fir
     p->due = first_tick;
     p->armed = 1;
     p->generation++;
+    p->starts++;
     return PK_HAL_OK;
 }
 
@@ -85,12 +86,17 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
                  volatile int *stop)
 {
     const uint64_t ms = p->tick_hz / 1000u ? p->tick_hz / 1000u : 1u;
+    const uint64_t spin = p->tick_hz / 10000u ? p->tick_hz / 10000u : 1u; /* 100 us */
     for (;;) {
         if (stop != NULL && *stop)
             return 1;
         if (p->irq_poll != NULL)
             p->irq_poll(p->irq_arg);
-        int st = main_fn(arg, op_clock_ticks(p));
+        uint64_t t_main = op_clock_ticks(p);
+        int st = main_fn(arg, t_main);
+        t_main = op_clock_ticks(p) - t_main;
+        if (t_main > p->main_max)
+            p->main_max = t_main; /* a callback due meanwhile waited this long */
         if (st < 0 && !p->armed)
             return 0;
         /* Run every callback that is due; give the main loop a turn at least
@@ -99,27 +105,50 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
         while (p->armed && now < until) {
             if (p->irq_poll != NULL)
                 p->irq_poll(p->irq_arg);
-            if (p->due > now) {
-                if (st <= 0 && p->due - now > ms) {
-                    struct timespec nap = { 0, 200000 }; /* far away: doze 0.2 ms */
-                    nanosleep(&nap, NULL);
+            /* Never closer than min_gap_ticks to the previous callback: after
+             * a late one, the next edge keeps the driver's minimum spacing. */
+            uint64_t at = p->due;
+            if (p->min_gap_ticks != 0u && p->ran_at + p->min_gap_ticks > at)
+                at = p->ran_at + p->min_gap_ticks;
+            if (at > now) {
+                if (st <= 0 && at - now > spin) {
+                    /* Sleep until `spin` before it, then spin the rest: a
+                     * SCHED_FIFO loop that only spun would use 100% of its
+                     * core and be throttled by the kernel (sched_rt_runtime_us:
+                     * 50 ms stalls every second, measured by bench-gpiod). */
+                    uint64_t wake = at - spin < until ? at - spin : until;
+                    uint64_t ns = p->origin_ns + wake / p->tick_hz * 1000000000u +
+                                  wake % p->tick_hz * 1000000000u / p->tick_hz;
+                    struct timespec ts = { (time_t)(ns / 1000000000u), (long)(ns % 1000000000u) };
+                    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
                 }
                 now = op_clock_ticks(p);
-                if (p->due > now && st > 0)
+                if (at > now && st > 0)
                     break; /* main has work: do it, come back */
                 continue;
             }
             if (now - p->due > p->late_max)
                 p->late_max = now - p->due;
             uint32_t gen = p->generation;
-            uint64_t next = p->cb(p->cb_arg, p->due);
+            p->running_due = p->due;
+            p->in_cb = 1;
+            p->callbacks++;
+            /* The callback gets the tick it really runs at (as the AVR and
+             * Cortex-M timers pass theirs): a late step then still gets its
+             * full pulse width and the step generator moves its schedule
+             * rather than firing the missed steps back to back. */
+            uint64_t next = p->cb(p->cb_arg, now);
+            p->in_cb = 0;
             if (p->generation == gen) {
                 if (next == 0u)
                     p->armed = 0;
                 else
                     p->due = next;
             }
+            /* After the callback: its edges are written by now, even if the
+             * process was preempted inside it. */
             now = op_clock_ticks(p);
+            p->ran_at = now;
         }
         if (!p->armed && st == 0) {
             struct timespec nap = { 0, 500000 }; /* nothing scheduled: 0.5 ms */
@@ -128,14 +157,14 @@ int pk_posix_run(struct pk_posix_timer *p, pk_posix_main_fn main_fn, void *arg,
     }
 }
 
-int pk_posix_realtime(void)
+uint64_t pk_posix_timer_ns(const struct pk_posix_timer *p) { return mono_ns() - p->origin_ns; }
+
+int pk_posix_realtime(int *sched_err, int *lock_err)
 {
     struct sched_param sp;
     memset(&sp, 0, sizeof sp);
     sp.sched_priority = sched_get_priority_max(SCHED_FIFO) / 2;
-    if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
-        return -errno;
-    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-        return -errno;
-    return 0;
+    *sched_err = sched_setscheduler(0, SCHED_FIFO, &sp) != 0 ? errno : 0;
+    *lock_err = mlockall(MCL_CURRENT | MCL_FUTURE) != 0 ? errno : 0;
+    return *sched_err == 0 && *lock_err == 0 ? 0 : -1;
 }

@@ -18,6 +18,8 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sanitizer/asan_interface.h> /* no-op macros without ASan */
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -51,6 +53,35 @@ static inline uint32_t fz_u32(struct fz_in *in)
 {
     uint32_t lo = fz_u16(in);
     return lo | ((uint32_t)fz_u16(in) << 16);
+}
+
+
+/** Longest copy fz_exact makes (the targets cap their inputs below it). */
+#define FZ_EXACT_MAX 4096u
+#define FZ_EXACT_PAD 64u
+
+/**
+ * An exact-length copy of s[0..n) without the heap: in static storage, slot
+ * 0..3, valid until the next fz_exact with that slot. Under ASan every byte
+ * around the copy is poisoned, so reading one byte before or past it is
+ * reported as an overflow, as for an exact-size malloc (the copy starts
+ * 8-aligned and ASan marks the end of a region exactly). n > FZ_EXACT_MAX is
+ * a harness bug and aborts.
+ */
+static inline uint8_t *fz_exact(unsigned slot, const uint8_t *s, size_t n)
+{
+    static _Alignas(64) uint8_t pool[4][FZ_EXACT_PAD + FZ_EXACT_MAX + FZ_EXACT_PAD];
+    if (slot >= 4u || n > FZ_EXACT_MAX) {
+        fprintf(stderr, "fz_exact: slot %u, %zu bytes: harness limit\n", slot, n);
+        abort();
+    }
+    uint8_t *b = pool[slot];
+    ASAN_UNPOISON_MEMORY_REGION(b + FZ_EXACT_PAD, n);
+    ASAN_POISON_MEMORY_REGION(b, FZ_EXACT_PAD);
+    ASAN_POISON_MEMORY_REGION(b + FZ_EXACT_PAD + n, FZ_EXACT_MAX + FZ_EXACT_PAD - n);
+    if (n)
+        memcpy(b + FZ_EXACT_PAD, s, n);
+    return b + FZ_EXACT_PAD;
 }
 
 #endif

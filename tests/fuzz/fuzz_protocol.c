@@ -36,6 +36,8 @@
 #define RX_SIZE 128u
 #define MAXLINES 20000u
 #define OUT_MAX (1u << 20)
+/* Bytes of input used (tests/fuzz/fuzz_protocol.options passes the same -max_len). */
+#define MAX_INPUT 1024u
 
 static struct pk_grbl G;
 
@@ -46,12 +48,12 @@ static struct {
     int lost;            /* bytes were dropped since the last read */
     int filter;          /* pass bytes through pk_grbl_rt_filter first */
     unsigned tx_room;
-    char out[OUT_MAX];
     size_t out_len;
     /* the harness's own count of line ends the engine read */
     unsigned lines_read;
     int last_cr;
     uint32_t resets_seen;
+    char out[OUT_MAX]; /* last: not cleared between inputs (out_len says what is valid) */
 } U;
 
 static void isr_byte(uint8_t b)
@@ -118,11 +120,35 @@ static struct {
     unsigned cap, q;
     int held, alarm, refuse;
     pk_um_t pos[PK_GC_AXES];
+    /* last: cleared between inputs only below lines_hw */
     unsigned moves_for[MAXLINES]; /* moves accepted while line #i was pending */
     int refused_for[MAXLINES];    /* the machine refused part of line #i */
 } M;
+static unsigned lines_hw; /* every moves_for/refused_for entry from here on is zero */
 
-static unsigned cur_line(void) { return G.stats.lines < MAXLINES ? G.stats.lines : MAXLINES - 1u; }
+static unsigned cur_line(void)
+{
+    unsigned l = G.stats.lines < MAXLINES ? G.stats.lines : MAXLINES - 1u;
+    if (l >= lines_hw)
+        lines_hw = l + 1u;
+    return l;
+}
+
+/* A clean harness for the next input without clearing megabytes: the fields
+ * before the big arrays, and the arrays' entries the last inputs touched.
+ * Every 256th input (and the first) checks that the arrays are all zero. */
+static void harness_reset(void)
+{
+    static unsigned long runs;
+    memset(&U, 0, (size_t)((char *)U.out - (char *)&U));
+    memset(&M, 0, (size_t)((char *)M.moves_for - (char *)&M));
+    memset(M.moves_for, 0, lines_hw * sizeof M.moves_for[0]);
+    memset(M.refused_for, 0, lines_hw * sizeof M.refused_for[0]);
+    lines_hw = 0;
+    if ((runs++ & 255u) == 0u)
+        for (unsigned i = 0; i < MAXLINES; i++)
+            FZ_CHECK(M.moves_for[i] == 0u && M.refused_for[i] == 0, "the harness reset clears every line's record");
+}
 
 static int m_take(void)
 {
@@ -258,11 +284,36 @@ static void check_output(void)
     FZ_CHECK(answers + dropped == U.lines_read, "exactly one ok/error per complete line");
 }
 
+/* Let the engine and the machine run until both are idle and every byte is
+ * read, as an operator would: cycle start now and then (after an M0 read
+ * while draining), a reset if locked. Returns the spins used (100000: not
+ * drained). */
+static unsigned drain(void)
+{
+    unsigned spins = 0;
+    for (; spins < 100000u; spins++) {
+        if (U.filter == 0 && M.held)
+            m_resume(&M); /* without the filter '~' may sit behind a held line */
+        if (spins % 64u == 63u) { /* an operator: cycle start after an M0 read while draining */
+            if (U.filter)
+                isr_byte('~');
+            else /* the rebuilt engine reads no input while held: '~' would queue behind it */
+                (void)pk_grbl_rt_filter(&G, '~');
+        }
+        if (spins == 50000u && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP))
+            isr_byte(0x18); /* locked (a soft limit, $SLP): only a reset goes on */
+        poll_engine();
+        m_run(8);
+        if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u)
+            break;
+    }
+    return spins;
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    struct fz_in in = { data, size, 0 };
-    memset(&U, 0, sizeof U);
-    memset(&M, 0, sizeof M);
+    struct fz_in in = { data, size < MAX_INPUT ? size : MAX_INPUT, 0 };
+    harness_reset();
     dropped = 0;
     uint8_t cfg = fz_u8(&in);
     U.filter = (cfg & 0x80u) == 0u;
@@ -327,27 +378,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     M.refuse = 0;
     U.tx_room = 256;
     isr_byte('~');
-    unsigned spins = 0;
-    for (; spins < 100000u; spins++) {
-        if (U.filter == 0 && M.held)
-            m_resume(&M); /* without the filter '~' may sit behind a held line */
-        if (spins % 64u == 63u)
-            isr_byte('~'); /* an operator: cycle start after an M0 read while draining */
-        if (spins == 50000u && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP))
-            isr_byte(0x18); /* locked (a soft limit, $SLP): only a reset goes on */
-        poll_engine();
-        m_run(8);
-        if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u)
-            break;
-    }
-    FZ_CHECK(spins < 100000u, "the engine drains and ends idle");
+    FZ_CHECK(drain() < 100000u, "the engine drains and ends idle");
     if (G.len != 0u || G.line_flags != 0u) {
-        /* an unterminated last line is not a complete line: end it now */
+        /* an unterminated last line is not a complete line: end it now (it may
+         * be an M0, answered after the operator's cycle start, as in Grbl) */
         isr_byte('\n');
-        for (spins = 0; spins < 100000u && !(pk_grbl_idle(&G) && U.head == U.tail); spins++) {
-            poll_engine();
-            m_run(8);
-        }
+        FZ_CHECK(drain() < 100000u, "the engine drains a last line and ends idle");
     }
     check_output();
     return 0;

@@ -33,6 +33,15 @@
  *     pk_refine_max_release().
  *   - tangents: zero, or a unit vector with |t|^2 within 2^-20 of 1 (Q1.30);
  *     all zero when tangents are off.
+ *
+ * Cost per input (the campaign's rate): the kernel's work is one pull per
+ * output point, so an input gets WORK_OUT outputs: once the fuzzed instance
+ * has delivered that many, further pushes are skipped (the bytes are still
+ * consumed), and the stroke in progress is finished and checked as any
+ * other. An input thus costs at most WORK_OUT + 2^depth +
+ * pk_refine_max_release() pulls, twice (the reference). Inputs are capped at
+ * MAX_INPUT bytes (tests/fuzz/fuzz_refine.options passes the same -max_len);
+ * the bytes beyond are ignored.
  */
 #include "fuzz_common.h"
 #include "pk_refine.h"
@@ -42,6 +51,12 @@
 
 #define MAXOUT (1u << 16)
 #define MAXPTS 4096u
+/** Outputs per input (all strokes) after which no more points are pushed:
+ *  depth 0 still reaches the kernel's 255-point saturation, depth 8 gets
+ *  a few points (each one 256 outputs). */
+#define WORK_OUT 1024u
+/** Bytes of input used. */
+#define MAX_INPUT 512u
 
 static struct pk_refine_out OUT_F[MAXOUT], OUT_R[MAXOUT];
 static pk_um_t PTS[MAXPTS][PK_AXES];
@@ -177,11 +192,15 @@ static int decode_point(struct fz_in *in, unsigned mode, const pk_um_t *prev, un
     return ok;
 }
 
+#ifndef FZ_STRICT
+#define FZ_STRICT 0
+#endif
+
 static void start_stroke(struct stroke *s) { memset(s, 0, sizeof *s); }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    struct fz_in in = { data, size, 0 };
+    struct fz_in in = { data, size < MAX_INPUT ? size : MAX_INPUT, 0 };
     static struct pk_refine r, snap;
     struct pk_refine_cfg c = { 0 };
     uint8_t b0 = fz_u8(&in), b1 = fz_u8(&in);
@@ -225,6 +244,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     pk_um_t prev[PK_AXES] = { 0 };
     uint32_t walk = 0;
     unsigned ops = 0;
+    unsigned done_out = 0; /* outputs of the strokes already checked (WORK_OUT) */
 
     while (fz_more(&in) && ops++ < 4000u) {
         uint8_t op = fz_u8(&in);
@@ -232,8 +252,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         case 0: case 1: case 2: { /* push one point */
             pk_um_t p[PK_AXES];
             int ok = decode_point(&in, (op >> 3) % 5u, prev, dims, p);
-            if (ok && (s.m >= cap || s.m >= MAXPTS))
-                break; /* harness limit: keep the stroke's output in the buffers */
+            if (ok)
+            if (ok && (s.m >= cap || s.m >= MAXPTS || done_out + s.nout >= WORK_OUT))
+                break; /* harness limits: the stroke's output fits the buffers; work per input */
             snap = r;
             int pr = pk_refine_push(&r, p);
             if (s.finished) {
@@ -281,6 +302,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                     FZ_CHECK(pr == PK_END, "pull returns OK, NEED_INPUT or END");
                     FZ_CHECK(s.finished, "no PK_END before finish");
                     check_stroke(&r, &s);
+                    done_out += s.nout;
                     start_stroke(&s);
                     slot_free = 1;
                 }
@@ -310,7 +332,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 s.nout++;
                 FZ_CHECK(s.nout < MAXOUT, "output fits the harness buffer");
             }
-            for (unsigned j = 0; j < n && s.m < cap && s.m < MAXPTS; j++) {
+            for (unsigned j = 0; j < n && s.m < cap && s.m < MAXPTS && done_out + s.nout < WORK_OUT; j++) {
                 pk_um_t p[PK_AXES];
                 for (unsigned a = 0; a < PK_AXES; a++) {
                     walk = walk * 1664525u + 1013904223u;
@@ -339,6 +361,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if ((op & 0x38u) != 0x38u)
                 break;
             pk_refine_reset(&r);
+            done_out += s.nout;
             start_stroke(&s);
             last_push = 0;
             slot_free = 1;
