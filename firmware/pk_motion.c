@@ -1094,6 +1094,11 @@ int pk_machine_set_hard_limits(struct pk_machine *m, bool on)
     if (on && (m->hal->inputs & PK_IN_LIMITS) == 0u)
         return PK_MOTION_ENOINPUT;
     uint32_t tok = pk_hal_irq_save(m->hal);
+    /* a switch that already tripped (its edge reported, the alarm not yet
+     * latched by a step event) stays tripped: turning the watch off must
+     * not let the steps go on */
+    if (!on && m->sg.alarm == 0u && (m->sg.fired & PK_SGW_LIMITS) != 0u)
+        m->sg.alarm = PK_ALARM_HARD_LIMIT;
     m->hard_limits = on;
     m->sg.watch = watch_bits(m, m->cycle);
     pk_hal_irq_restore(m->hal, tok);

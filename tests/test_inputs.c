@@ -221,6 +221,32 @@ static void hard_limit_alarm_shows_at_once_not_at_the_next_step(void)
     pulses_free(&got);
 }
 
+static void turning_hard_limits_off_after_a_trip_does_not_resume_the_steps(void)
+{
+    /* the switch closes at T; before the alarm is seen by a poll (with
+     * edges) or a step event (without), hard limits are switched off: the
+     * trip stands, no step after T */
+    setup();
+    TH_ASSERT_EQ(pk_machine_set_hard_limits(&M, true), PK_MOTION_OK);
+    const uint64_t T = 500000;
+    TH_ASSERT_EQ(pk_rec_input_at(&R, T, PK_IN_LIMIT_X, 1), 0);
+    move_to(10.0, 0, 100.0);
+    while (R.now < T) {
+        pk_machine_poll(&M);
+        pk_rec_advance(&R, R.now + POLL_TICKS);
+    }
+    TH_ASSERT_EQ(pk_machine_set_hard_limits(&M, false), PK_MOTION_OK);
+    TH_ASSERT(run_until(idle_or_alarm, 10.0)); /* without edges the move runs on: 6 s */
+    struct pulses got = pulses_of(0);
+    if (EDGES) {
+        TH_EXPECT_EQ(pk_machine_state(&M), PK_STATE_ALARM);
+        TH_EXPECT_EQ(pk_machine_alarm(&M), PK_ALARM_HARD_LIMIT);
+        TH_EXPECT(got.n > 0 && got.t[got.n - 1] < T);
+    }
+    TH_EXPECT_EQ(pos_steps(0), got.sum);
+    pulses_free(&got);
+}
+
 static void a_switch_reached_by_the_move_stops_it_on_that_step(void)
 {
     setup();
@@ -709,6 +735,7 @@ static void button_presses_and_levels_are_reported_with_polarity(void)
     static void fn##_without_edges(void) { EDGES = 0; fn(); }
 BOTH(hard_limit_mid_move_stops_within_one_step_event)
 BOTH(hard_limit_alarm_shows_at_once_not_at_the_next_step)
+BOTH(turning_hard_limits_off_after_a_trip_does_not_resume_the_steps)
 BOTH(a_switch_reached_by_the_move_stops_it_on_that_step)
 BOTH(a_switch_closed_before_the_move_lets_no_step_out)
 BOTH(hard_limits_off_ignore_the_switches)
@@ -735,6 +762,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         CASES(hard_limit_mid_move_stops_within_one_step_event),
         CASES(hard_limit_alarm_shows_at_once_not_at_the_next_step),
+        CASES(turning_hard_limits_off_after_a_trip_does_not_resume_the_steps),
         CASES(a_switch_reached_by_the_move_stops_it_on_that_step),
         CASES(a_switch_closed_before_the_move_lets_no_step_out),
         CASES(hard_limits_off_ignore_the_switches),
