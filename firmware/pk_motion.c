@@ -738,7 +738,7 @@ static void take_requests(struct pk_machine *m)
          * of the XY plane, so a smoothed helix or a ramp of CAM output became
          * thousands of micro-blocks whose look-ahead held the speed down
          * (3.3x slower than exact on a thread-milling helix). */
-        bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && axes_of(m) > 2
+        bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && m->cfg.axes > 2u
                       && m->stroke.mode != PK_SMOOTH_OFF && r->p[Z_AX] != m->req_z_um;
         if (z_move) {
             if (open) {
