@@ -14,18 +14,18 @@ BENCH_DIR := $(BUILD)/bench
 # ---- speed on the chip (simavr) ----------------------------------------------
 # 1. The kernel alone on an ATmega328P (bench/avr/avr_refine_cycles.c, run by
 #    bench/avr_cycles): cycles per output point, 2 and 3 axes, linked like the
-#    board images (without the limit stage, hal/pk_kernel_nolimit.c).
+#    board images (without the limit stage: -DPK_BUILD_LIMIT=0).
 # 2. The board images themselves (bench/avr_bench.py on `plotkin avrsim`):
 #    step interrupt per step, main-loop cost per chunk/block/line, the highest
 #    sustained step rate, on-chip vs planned motion time.
-$(eval $(call tgt_fw_rule,avr-ax2,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=2))
-$(eval $(call tgt_fw_rule,avr-ax3,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=3))
+$(eval $(call tgt_fw_rule,avr-ax2,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=2 -DPK_BUILD_LIMIT=0))
+$(eval $(call tgt_fw_rule,avr-ax3,$(AVR_CC),$(TGT_FLAGS_avr) -DPK_AXES=3 -DPK_BUILD_LIMIT=0))
 AVR_BENCH_FLAGS := $(TGT_FLAGS_avr) -Os -g -std=c11 -ffunction-sections -fdata-sections \
                    -Ifirmware -Ihal -Ibench/avr -I/usr/include/simavr/avr
-$(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h hal/pk_kernel_nolimit.c $(TGT_DIR)/avr-ax%/libplotkin_fw.a
+$(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-ax%/libplotkin_fw.a
 	@mkdir -p $(@D)
-	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -Wl,--gc-sections $(FW_NOLIMIT_LDFLAGS) \
-	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< hal/pk_kernel_nolimit.c $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
+	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -DPK_BUILD_LIMIT=0 -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
 $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)
 	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf

@@ -272,11 +272,14 @@ static int g_word(struct pk_gc_block *b, int32_t m, uint8_t dec)
         switch (v) {
         case 0: b->motion = PK_GC_MOT_RAPID; break;
         case 1: b->motion = PK_GC_MOT_LINEAR; break;
-        case 2: b->motion = PK_GC_MOT_CW_ARC; break;
-        case 3: b->motion = PK_GC_MOT_CCW_ARC; break;
+        case 2: case 3:
+            if (!PK_BUILD_ARCS)
+                return PK_GC_E_UNSUPPORTED; /* not built into this firmware */
+            b->motion = v == 2 ? PK_GC_MOT_CW_ARC : PK_GC_MOT_CCW_ARC;
+            break;
         case 80: b->motion = PK_GC_MOT_NONE; break;
         case 5:
-            if (mant != 0 && mant != 10)
+            if (!PK_BUILD_G5 || (mant != 0 && mant != 10))
                 return PK_GC_E_UNSUPPORTED; /* G5.2 NURBS and the rest of LinuxCNC's G5.x */
             b->motion = mant ? PK_GC_MOT_QUAD : PK_GC_MOT_CUBIC;
             mant = 0;
@@ -827,6 +830,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 break;
             case PK_GC_MOT_CW_ARC:
             case PK_GC_MOT_CCW_ARC: {
+                if (!PK_BUILD_ARCS)
+                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
                 if (!(axis_words & (PK_GC_WBIT(PK_GC_W_X + ax0) | PK_GC_WBIT(PK_GC_W_X + ax1))))
@@ -875,6 +880,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             }
             case PK_GC_MOT_CUBIC:
             case PK_GC_MOT_QUAD:
+                if (!PK_BUILD_G5)
+                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
             {
@@ -915,7 +922,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     pk_gc_umpm_t move_feed = f;
     if (feed_move && feedmode == PK_GC_INVERSE_TIME && !jog) {
         /* G93: the move takes 1/F minutes: feed = length * F */
-        uint32_t len = (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC)
+        uint32_t len = (PK_BUILD_ARCS && (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC))
                            ? pk_arc_length_um(&cmd->u.arc) : move_len(st->pos_um, target);
         if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
             return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */

@@ -48,6 +48,17 @@
 /** Axes the interpreter handles (X Y, and Z in a 3-axis build). */
 #define PK_GC_AXES PK_AXES
 
+/** Build knobs of the interpreter (a small image leaves them out): 1 (the
+ *  default) builds G2/G3 arcs (PK_BUILD_ARCS) and G5/G5.1 splines
+ *  (PK_BUILD_G5); 0 refuses every such block with PK_GC_E_UNSUPPORTED
+ *  (error:20, as Grbl answers a G-code it does not have). */
+#ifndef PK_BUILD_ARCS
+#define PK_BUILD_ARCS 1
+#endif
+#ifndef PK_BUILD_G5
+#define PK_BUILD_G5 1
+#endif
+
 /** Longest line pk_gcode_parse accepts (bytes, terminator excluded). */
 #define PK_GC_LINE_MAX 255u
 

@@ -432,7 +432,7 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
     p.chord_tol_um = c->chord_tol_um;
     memcpy(p.start, start, sizeof p.start);
     memcpy(p.end, end, sizeof p.end);
-    if (kind == PK_GRBL_PRIM_ARC) {
+    if (PK_BUILD_ARCS && kind == PK_GRBL_PRIM_ARC) {
         const struct pk_arc *a = &c->u.arc;
         p.centre_q8[0] = a->g.centre_q8[0];
         p.centre_q8[1] = a->g.centre_q8[1];
@@ -443,7 +443,7 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
         p.sweep = a->sweep;
         p.r0_q8 = a->r0_q8;
         p.r1_q8 = a->r1_q8;
-    } else if (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD) {
+    } else if (PK_BUILD_G5 && (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD)) {
         for (int k = 0; k < 2; k++)
             for (int a = 0; a < 2; a++)
                 p.ctrl[k][a] = c->u.bez.p[1 + k][a];
@@ -520,7 +520,9 @@ static int do_curve(struct pk_grbl *g)
     int is_arc = c->motion == PK_GC_MOT_CW_ARC || c->motion == PK_GC_MOT_CCW_ARC;
     for (int budget = CHORDS_PER_POLL; budget > 0; budget--) {
         if (!g->pt_held) {
-            if (is_arc) {
+            if (!(is_arc ? PK_BUILD_ARCS : PK_BUILD_G5)) {
+                return 1; /* not built: pk_gcode_interp refuses it */
+            } else if (is_arc) {
                 if (!pk_arc_next(&c->u.arc, g->pt))
                     return 1;
             } else {
@@ -634,7 +636,7 @@ static int do_move(struct pk_grbl *g)
         if (g->step == 0) {
             uint8_t kind = c->motion == PK_GC_MOT_CUBIC ? PK_GRBL_PRIM_CUBIC
                            : c->motion == PK_GC_MOT_QUAD ? PK_GRBL_PRIM_QUAD
-                           : c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
+                           : !PK_BUILD_ARCS || c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
             observe(g, kind, c->start_um, c->target_um);
             g->step = 1;
             g->pt_held = 0;

@@ -27,24 +27,25 @@ enum { CYC_NONE = 0, CYC_PROBE = 1, CYC_HOME = 2, CYC_PULL = 3 };
 /** Work items per poll (bounds the main-loop latency). */
 #define POLL_BUDGET 64u
 
-static uint32_t axes_of(const struct pk_machine *m) { return m->cfg.axes; }
-
 static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
 {
-    uint32_t axes = c->axes ? c->axes : PK_AXES;
+    unsigned axes = c->axes ? c->axes : PK_AXES;
     if (axes < 2u || axes > PK_AXES || axes > PK_HAL_MAX_AXES)
         return -1;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         if (c->steps_per_mm_q16[i] < PK_SPMM_Q16_MIN || c->steps_per_mm_q16[i] > PK_SPMM_Q16_MAX)
             return -1;
         if (c->max_rate[i] < 1u || c->max_rate[i] > PK_UM_MIN_MAX)
             return -1;
         if (c->accel[i] < 1u || c->accel[i] > PK_UM_S2_MAX)
             return -1;
-        /* the fastest step train must leave room for a pulse and a gap */
-        uint64_t sps = ((uint64_t)c->max_rate[i] * c->steps_per_mm_q16[i])
-                       / (60000ull << PK_SPMM_Q16_SHIFT);
-        if (sps * 2u * (uint64_t)(c->step_pulse_ticks ? c->step_pulse_ticks : 1u) > tick_hz)
+        /* the fastest step train must leave room for a pulse and a gap:
+         * 2 sps pulse > tick_hz, with sps < 2^24 steps/s (the ranges above)
+         * and 2 t > T <=> t > floor(T / 2) for integers (a saturated product
+         * is beyond any tick rate too) */
+        uint32_t sps = pk_muldiv_u32(c->max_rate[i], c->steps_per_mm_q16[i],
+                                     (uint32_t)60000u << PK_SPMM_Q16_SHIFT);
+        if (pk_mulshr_u32(sps, c->step_pulse_ticks ? c->step_pulse_ticks : 1u, 0) > tick_hz / 2u)
             return -1;
     }
     if (c->junction_dev_um < 0 || c->junction_dev_um > 10000)
@@ -65,8 +66,8 @@ static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
  * position the machine can represent.) */
 static bool pos_fits(const pk_steps_t pos[PK_AXES], const struct pk_motion_cfg *c)
 {
-    uint32_t axes = c->axes ? c->axes : PK_AXES;
-    for (uint32_t i = 0; i < axes; i++) {
+    unsigned axes = c->axes ? c->axes : PK_AXES;
+    for (unsigned i = 0; i < axes; i++) {
         int64_t um = ((int64_t)pos[i] * ((int64_t)1000 << PK_SPMM_Q16_SHIFT)) / c->steps_per_mm_q16[i];
         if (um > PK_UM_MAX || um < -PK_UM_MAX)
             return false;
@@ -82,13 +83,13 @@ static void setup_modules(struct pk_machine *m)
     struct pk_planner_limits lim;
     memset(&lim, 0, sizeof lim);
     lim.axes = m->cfg.axes;
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         lim.max_rate[i] = cfg->max_rate[i];
         lim.accel[i] = cfg->accel[i];
     }
     lim.junction_dev_um = cfg->junction_dev_um;
     lim.accel_min = cfg->accel[0];
-    for (uint32_t i = 1; i < axes_of(m); i++)
+    for (unsigned i = 1; i < m->cfg.axes; i++)
         if (cfg->accel[i] < lim.accel_min)
             lim.accel_min = cfg->accel[i];
     pk_planner_init(&m->planner, &lim);
@@ -218,10 +219,10 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
     m->sg.in_rise = in_rise;
     inputs_setup(m);
     pk_hal_irq_restore(m->hal, tok);
-    for (uint32_t i = 0; i < PK_AXES; i++) {
-        m->sg.pos[i] = i < axes_of(m) ? pos[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++) {
+        m->sg.pos[i] = i < m->cfg.axes ? pos[i] : 0;
         m->target_steps[i] = m->sg.pos[i];
-        m->target_um[i] = i < axes_of(m) ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
+        m->target_um[i] = i < m->cfg.axes ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
     }
     m->sg.dir_cur = dir;
     m->sg.alarm = alarm;
@@ -260,10 +261,17 @@ uint32_t pk_machine_room(const struct pk_machine *m)
 }
 
 /* Does the smoothing policy requested last (the one later moves will get)
- * use a scheme that can leave the hull of its control points? */
+ * use a scheme that can leave the hull of its control points? Only DLG, and
+ * only a build with DLG's window can run it (pk_stroke_check refuses it
+ * otherwise). */
 static bool policy_overshoots(const struct pk_smooth_cfg *s)
 {
+#if PK_MOTION_DLG
     return s->mode == PK_SMOOTH_FIXED && s->scheme == PK_SCHEME_DLG && s->depth > 0u;
+#else
+    (void)s;
+    return false;
+#endif
 }
 
 /* The box [lo, hi] the smoothed path of the current run (the feed moves since
@@ -274,24 +282,32 @@ static bool policy_overshoots(const struct pk_smooth_cfg *s)
  * D2[i-1] - D2[i+1])/16, new ones: (D2[i] + D2[i+1])/8), so the whole path
  * stays within max|D2|/8 * (1 + 1/2 + 1/4 + ...) = max|D2|/4 of the control
  * polygon, per axis. B-splines stay in the hull. Returns the run box grown by
- * that bound (+1 µm for the kernel's rounding). */
+ * that bound (+1 µm for the kernel's rounding). All in 32 bits: coordinates
+ * within ±PK_UM_MAX, so |D2| <= 4 PK_UM_MAX < 2^23 and the box within
+ * ±(PK_UM_MAX + 2^21 + 1). */
 static void run_box(const struct pk_machine *m, const pk_um_t t[PK_AXES], bool dlg,
-                    int64_t lo[PK_AXES], int64_t hi[PK_AXES])
+                    int32_t lo[PK_AXES], int32_t hi[PK_AXES])
 {
-    for (uint32_t i = 0; i < axes_of(m); i++) {
-        int64_t a = t[i], b = t[i];
-        uint64_t d2 = 0;
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
+        int32_t a = t[i], b = t[i];
         if (m->acc_n > 0) {
             if (m->acc_lo[i] < a) a = m->acc_lo[i];
             if (m->acc_hi[i] > b) b = m->acc_hi[i];
-            d2 = m->acc_d2[i];
         }
-        if (m->acc_n >= 2) {
-            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
-            uint64_t ad = (uint64_t)(d < 0 ? -d : d);
-            if (ad > d2) d2 = ad;
+        int32_t g = 0;
+#if PK_MOTION_DLG
+        if (dlg) {
+            uint32_t d2 = m->acc_n > 0 ? m->acc_d2[i] : 0u;
+            if (m->acc_n >= 2) {
+                int32_t d = t[i] - 2 * m->acc_last[i] + m->acc_prev[i];
+                uint32_t ad = (uint32_t)(d < 0 ? -d : d);
+                if (ad > d2) d2 = ad;
+            }
+            g = (int32_t)((d2 + 3u) / 4u) + 1;
         }
-        int64_t g = dlg ? (int64_t)((d2 + 3u) / 4u) + 1 : 0;
+#else
+        (void)dlg;
+#endif
         lo[i] = a - g;
         hi[i] = b + g;
     }
@@ -302,28 +318,36 @@ static void run_add(struct pk_machine *m, const pk_um_t t[PK_AXES], bool feed)
     if (!feed) {
         /* a rapid starts a new run at its target */
         m->acc_n = 1;
-        memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+        memcpy(m->acc_last, t, sizeof m->acc_last);
         memcpy(m->acc_lo, t, sizeof m->acc_lo);
         memcpy(m->acc_hi, t, sizeof m->acc_hi);
+#if PK_MOTION_DLG
         memset(m->acc_d2, 0, sizeof m->acc_d2);
+#endif
         return;
     }
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         if (m->acc_n == 0) {
             m->acc_lo[i] = m->acc_hi[i] = t[i];
+#if PK_MOTION_DLG
             m->acc_d2[i] = 0;
+#endif
             continue;
         }
         if (t[i] < m->acc_lo[i]) m->acc_lo[i] = t[i];
         if (t[i] > m->acc_hi[i]) m->acc_hi[i] = t[i];
+#if PK_MOTION_DLG
         if (m->acc_n >= 2) {
-            int64_t d = (int64_t)t[i] - 2 * (int64_t)m->acc_p[1][i] + m->acc_p[0][i];
+            int32_t d = t[i] - 2 * m->acc_last[i] + m->acc_prev[i]; /* |.| < 2^23 */
             uint32_t ad = (uint32_t)(d < 0 ? -d : d);
             if (ad > m->acc_d2[i]) m->acc_d2[i] = ad;
         }
+#endif
     }
-    memcpy(m->acc_p[0], m->acc_p[1], sizeof m->acc_p[0]);
-    memcpy(m->acc_p[1], t, sizeof m->acc_p[1]);
+#if PK_MOTION_DLG
+    memcpy(m->acc_prev, m->acc_last, sizeof m->acc_prev);
+#endif
+    memcpy(m->acc_last, t, sizeof m->acc_last);
     if (m->acc_n < 2)
         m->acc_n++;
 }
@@ -345,7 +369,7 @@ static void run_start(struct pk_machine *m)
 static void run_break(struct pk_machine *m)
 {
     if (m->acc_n > 0)
-        run_add(m, m->acc_p[1], false);
+        run_add(m, m->acc_last, false);
 }
 
 static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_min_t feed,
@@ -357,7 +381,7 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
         return PK_MOTION_ERANGE;
     if (kind == PK_MOVE_FEED && (feed < PK_UM_MIN_MIN || feed > PK_UM_MIN_MAX))
         return PK_MOTION_ERANGE;
-    for (uint32_t i = 0; i < axes_of(m); i++)
+    for (unsigned i = 0; i < m->cfg.axes; i++)
         if (target[i] > PK_UM_MAX || target[i] < -PK_UM_MAX)
             return PK_MOTION_ERANGE;
     /* full: say so before the envelope below (a sender retries a refused
@@ -365,15 +389,15 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     if (m->inq_count >= PK_MACHINE_INQ)
         return PK_MOTION_EFULL;
     {
-        int64_t lo[PK_AXES], hi[PK_AXES];
+        int32_t lo[PK_AXES], hi[PK_AXES];
         bool dlg = kind == PK_MOVE_FEED && policy_overshoots(&m->acc_policy);
         if (kind == PK_MOVE_FEED) {
             run_box(m, target, dlg, lo, hi);
         } else {
-            for (uint32_t i = 0; i < axes_of(m); i++)
+            for (unsigned i = 0; i < m->cfg.axes; i++)
                 lo[i] = hi[i] = target[i];
         }
-        for (uint32_t i = 0; i < axes_of(m); i++) {
+        for (unsigned i = 0; i < m->cfg.axes; i++) {
             if (lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
                 return PK_MOTION_ERANGE;
             if (m->soft_on && (lo[i] < m->soft_lo[i] || hi[i] > m->soft_hi[i]))
@@ -386,8 +410,8 @@ static int move_req(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_m
     run_add(m, target, kind == PK_MOVE_FEED);
     r->type = PK_REQ_MOVE;
     r->kind = (uint8_t)kind;
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        r->p[i] = i < axes_of(m) ? target[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        r->p[i] = i < m->cfg.axes ? target[i] : 0;
     r->arg = kind == PK_MOVE_FEED ? feed : 0u;
     r->chord_err_um = chord_err_um;
     return req_commit(m);
@@ -495,7 +519,7 @@ int pk_machine_set_soft_limits(struct pk_machine *m, bool on, const pk_um_t lo[P
     if (on) {
         if (lo == NULL || hi == NULL)
             return PK_MOTION_ERANGE;
-        for (uint32_t i = 0; i < axes_of(m); i++)
+        for (unsigned i = 0; i < m->cfg.axes; i++)
             if (lo[i] > hi[i] || lo[i] < -PK_UM_MAX || hi[i] > PK_UM_MAX)
                 return PK_MOTION_ERANGE;
         memcpy(m->soft_lo, lo, sizeof m->soft_lo);
@@ -527,6 +551,13 @@ static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
     return pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
 }
 
+/* The displacement of n steps in µm Q8: n * 1000 * 256 * 65536 / spmm,
+ * rounded: the steps of a displacement within 2 PK_UM_MAX, so < 2^31. */
+static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
+{
+    return (int32_t)pk_div_round64((int64_t)n * ((int64_t)256000 << PK_SPMM_Q16_SHIFT), (int64_t)spmm);
+}
+
 /*
  * Plan the straight move from the planned position (target_um, exactly; its
  * whole steps target_steps) towards p, at most PK_PLANNER_MAX_STEPS steps of
@@ -553,12 +584,12 @@ static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
  */
 static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_min_t feed)
 {
-    const uint32_t axes = axes_of(m);
+    const unsigned axes = m->cfg.axes;
     pk_um_t p[PK_AXES];
     memcpy(p, p_in, sizeof p);
     pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
     uint32_t mx = 0;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
         n[i] = st[i] - m->target_steps[i];
         uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
@@ -569,11 +600,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     if (mx > PK_PLANNER_MAX_STEPS) {
         /* a piece along the way (the rest follows in later blocks) */
         uint32_t k = (mx + PK_PLANNER_MAX_STEPS - 1u) / PK_PLANNER_MAX_STEPS;
-        for (uint32_t i = 0; i < axes; i++)
-            p[i] = (pk_um_t)(m->target_um[i] + ((int64_t)p_in[i] - m->target_um[i]) / (int64_t)k);
+        for (unsigned i = 0; i < axes; i++)
+            p[i] = m->target_um[i] + (p_in[i] - m->target_um[i]) / (int32_t)k; /* |.| < 2^23 */
         done = 0;
         mx = 0;
-        for (uint32_t i = 0; i < axes; i++) {
+        for (unsigned i = 0; i < axes; i++) {
             st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
             n[i] = st[i] - m->target_steps[i];
             uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
@@ -587,12 +618,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
             m->junction_sharp = true;  /* the corner moved to where the next block starts */
         return done;
     }
-    int64_t d_q8[PK_AXES] = { 0 };
-    for (uint32_t i = 0; i < axes; i++)   /* n * 1000 * 256 * 65536 / spmm: |n| <= 2^21 */
-        d_q8[i] = pk_div_round64((int64_t)n[i] * ((int64_t)256000 << PK_SPMM_Q16_SHIFT),
-                                 (int64_t)m->cfg.steps_per_mm_q16[i]);
+    int32_t d_q8[PK_AXES] = { 0 };
+    for (unsigned i = 0; i < axes; i++)
+        d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
-    for (uint32_t i = 0; i < axes; i++)
+    for (unsigned i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
     uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
     if (m->sg.prep_active && pk_mq_count(&m->mq) == 1u)
@@ -603,17 +633,21 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
     b->spindle = m->spindle_q16;
     b->period = 256u * mx;
-    for (uint32_t i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0) {
             b->inc[i] = 0;
             b->acc0[i] = -1;
             continue;
         }
-        int64_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
+        /* qa, qb: up to 2^21 µm * 10,000 steps/mm * 256 > 2^32, but target_steps
+         * = round(qa / 256) (the position contract), so |f| <= 128; |d| <=
+         * 256 (|n| + 1) <= 2^30; f is clamped to [-384, 383] (d >= 256 (|n| - 1)),
+         * so |(f - 128) * mx| <= 512 * 2^21: everything after qa, qb fits 32 bits */
+        int32_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
         int64_t qa = um_to_q8steps(m->target_um[i], m->cfg.steps_per_mm_q16[i]);
         int64_t qb = um_to_q8steps(p[i], m->cfg.steps_per_mm_q16[i]);
-        int64_t f = (qa - 256 * (int64_t)m->target_steps[i]) * sgn;
-        int64_t d = (qb - qa) * sgn;
+        int32_t f = (int32_t)(qa - 256 * (int64_t)m->target_steps[i]) * sgn;
+        int32_t d = (int32_t)(qb - qa) * sgn;
         if (d < 0)
             d = 0;
         /* at most one step per event: an axis whose Q8 distance exceeds the
@@ -621,11 +655,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
          * whole ones) steps at every event; with inc > period its first
          * event could miss and the block would end a step short (M5) */
         if (d > 256 * (int64_t)mx)
-            d = 256 * (int64_t)mx;
-        int64_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
+            d = (int32_t)(256 * (int64_t)mx); /* < d <= 2^30 */
+        int32_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
         f = f < lo ? lo : f > hi ? hi : f;
         b->inc[i] = (uint32_t)d;
-        b->acc0[i] = (int32_t)((f - 128) * (int64_t)mx);   /* |.| <= 512 * 2^21 */
+        b->acc0[i] = (f - 128) * (int32_t)mx;
     }
     m->lines_planned++;
     m->replan = true;
@@ -704,7 +738,7 @@ static void take_requests(struct pk_machine *m)
          * of the XY plane, so a smoothed helix or a ramp of CAM output became
          * thousands of micro-blocks whose look-ahead held the speed down
          * (3.3x slower than exact on a thread-milling helix). */
-        bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && axes_of(m) > 2u
+        bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && m->cfg.axes > 2u
                       && m->stroke.mode != PK_SMOOTH_OFF && r->p[Z_AX] != m->req_z_um;
         if (z_move) {
             if (open) {
@@ -809,7 +843,8 @@ static void check_idle(struct pk_machine *m)
         return;
     }
     uint32_t ms = m->cfg.lookahead_wait_ms ? m->cfg.lookahead_wait_ms : PK_LOOKAHEAD_WAIT_MS_DEFAULT;
-    if (now - m->wait_since < (uint64_t)ms * m->hal->tick_hz / 1000u)
+    /* ms <= 60,000 and tick_hz <= 2^24: the wait in ticks is below 2^30 */
+    if (now - m->wait_since < pk_muldiv_u32(ms, m->hal->tick_hz, 1000u))
         return;
     pk_stroke_finish(&m->stroke);
     m->flush = true;
@@ -1013,7 +1048,7 @@ bool pk_machine_reset(struct pk_machine *m)
     m->wait_since = 0;
     run_start(m);
     m->acc_policy = m->policy_applied;
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = m->sg.pos[i];
         m->target_um[i] = pk_steps_to_um(m->sg.pos[i], m->cfg.steps_per_mm_q16[i]);
     }
@@ -1033,8 +1068,8 @@ void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *
 void pk_machine_position_steps(const struct pk_machine *m, pk_steps_t out[PK_AXES])
 {
     uint32_t tok = pk_hal_irq_save(m->hal);
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        out[i] = i < axes_of(m) ? m->sg.pos[i] : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        out[i] = i < m->cfg.axes ? m->sg.pos[i] : 0;
     pk_hal_irq_restore(m->hal, tok);
 }
 
@@ -1042,8 +1077,8 @@ void pk_machine_position_um(const struct pk_machine *m, pk_um_t out[PK_AXES])
 {
     pk_steps_t s[PK_AXES];
     pk_machine_position_steps(m, s);
-    for (uint32_t i = 0; i < PK_AXES; i++)
-        out[i] = i < axes_of(m) ? pk_steps_to_um(s[i], m->cfg.steps_per_mm_q16[i]) : 0;
+    for (unsigned i = 0; i < PK_AXES; i++)
+        out[i] = i < m->cfg.axes ? pk_steps_to_um(s[i], m->cfg.steps_per_mm_q16[i]) : 0;
 }
 
 enum pk_machine_state pk_machine_state(const struct pk_machine *m)
@@ -1166,7 +1201,7 @@ int pk_machine_probe(struct pk_machine *m, const pk_um_t target[PK_AXES], pk_um_
 int pk_machine_home_seek(struct pk_machine *m, uint8_t axes, const pk_um_t target[PK_AXES],
                          pk_um_min_t feed)
 {
-    uint32_t all = (1u << axes_of(m)) - 1u;
+    uint32_t all = (1u << m->cfg.axes) - 1u;
     if (alarmed(m))
         return PK_MOTION_EALARM;
     if (axes == 0u || (axes & ~all) != 0u || (m->hal->inputs & axes) != axes)
@@ -1202,10 +1237,10 @@ int pk_machine_set_position(struct pk_machine *m, const pk_steps_t pos[PK_AXES])
     if (!pos_fits(pos, &m->cfg))
         return PK_MOTION_ERANGE;
     uint32_t tok = pk_hal_irq_save(m->hal);
-    for (uint32_t i = 0; i < axes_of(m); i++)
+    for (uint32_t i = 0; i < m->cfg.axes; i++)
         m->sg.pos[i] = pos[i];
     pk_hal_irq_restore(m->hal, tok);
-    for (uint32_t i = 0; i < axes_of(m); i++) {
+    for (uint32_t i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = pos[i];
         m->target_um[i] = pk_steps_to_um(pos[i], m->cfg.steps_per_mm_q16[i]);
     }

@@ -87,6 +87,11 @@
 #include "pk_stepgen.h"
 #include "pk_stroke.h"
 
+/** 1 when this build's kernel can run DLG (built in, and PK_WIN >= 4 for its
+ *  window), the only scheme whose path leaves the hull of its control points
+ *  (the soft-limit check then bounds it, pk_motion.c). */
+#define PK_MOTION_DLG (PK_BUILD_DLG && PK_WIN >= 4)
+
 /** Requests (moves, pen, dwell, mode changes, end) buffered before poll. */
 #ifndef PK_MACHINE_INQ
 #define PK_MACHINE_INQ 8
@@ -243,9 +248,12 @@ struct pk_machine {
     /* acceptance-time bound of the smoothed path (DLG can leave the hull of its
      * control points by at most max|second difference|/4 per axis) */
     uint8_t acc_n;                       /**< feed targets in the run so far (0..2) */
-    pk_um_t acc_p[2][PK_AXES];           /**< the last two accepted positions */
+    pk_um_t acc_last[PK_AXES];           /**< the last accepted position */
     pk_um_t acc_lo[PK_AXES], acc_hi[PK_AXES]; /**< box of the run's control points */
+#if PK_MOTION_DLG
+    pk_um_t acc_prev[PK_AXES];           /**< the accepted position before it */
     uint32_t acc_d2[PK_AXES];            /**< max |second difference| per axis in the run */
+#endif
     /* inputs (MAIN) */
     bool in_poll;                        /**< the board reports no input edges */
     bool hard_limits;                    /**< hard limits on */

@@ -22,3 +22,20 @@ pk_um_s_t pk_um_min_to_um_s(pk_um_min_t v)
     pk_um_s_t r = (pk_um_s_t)((v + 30u) / 60u);
     return (r == 0u && v != 0u) ? 1u : r;
 }
+
+uint32_t pk_muldiv_u32(uint32_t a, uint32_t b, uint32_t d)
+{
+    uint64_t q = ((uint64_t)a * b) / d;
+    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
+}
+
+uint32_t pk_mulshr_u32(uint32_t a, uint32_t b, unsigned s)
+{
+    uint64_t q = ((uint64_t)a * b) >> s;
+    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
+}
+
+int32_t pk_ratio_i32(int32_t num, unsigned s, uint32_t den)
+{
+    return (int32_t)(((int64_t)num * ((int64_t)1 << s)) / (int64_t)den);
+}

@@ -66,4 +66,23 @@ pk_um_t pk_steps_to_um(pk_steps_t steps, pk_spmm_q16_t spmm);
 /** µm/min -> µm/s, rounded to nearest (at least 1 for a non-zero input). */
 pk_um_s_t pk_um_min_to_um_s(pk_um_min_t v);
 
+/* 32-bit results of 64-bit intermediates. On an 8-bit core every 64-bit
+ * operation is a libgcc call or a long inline sequence with its operands
+ * moved into fixed registers; the motion core's 64-bit products and
+ * quotients whose result fits 32 bits go through these few out-of-line
+ * helpers, so that each caller handles 32-bit values only. The results are
+ * exactly those of the 64-bit expressions (the saturation only matters to a
+ * caller whose range argument allows a result of 2^32 or more). */
+
+/** floor(a * b / d) (d > 0), saturated at UINT32_MAX. */
+uint32_t pk_muldiv_u32(uint32_t a, uint32_t b, uint32_t d);
+
+/** floor(a * b / 2^s) (s < 64), saturated at UINT32_MAX. */
+uint32_t pk_mulshr_u32(uint32_t a, uint32_t b, unsigned s);
+
+/** num * 2^s / den truncated towards zero, as the 64-bit C division does
+ *  (den > 0, |num| * 2^s < 2^63); the caller's range argument keeps the
+ *  quotient within int32 (direction cosines in Q1.30: |num| <= den). */
+int32_t pk_ratio_i32(int32_t num, unsigned s, uint32_t den);
+
 #endif

@@ -76,7 +76,7 @@
 #include "pk_planner.h"
 
 /** Speed^2 Q4 from µm/min: (v / 60)^2 * 16 = v^2 / 225 (v < 2^26). */
-static pk_v2_q4_t v2_of_um_min(uint64_t v) { return (v * v + 112u) / 225u; }
+static pk_v2_q4_t v2_of_um_min(uint32_t v) { return ((uint64_t)v * v + 112u) / 225u; }
 
 /** 2 * a * len in Q4 speed^2 (len in µm Q8). */
 static pk_v2_q4_t two_a_s(pk_um_s2_t a, uint32_t len_q8)
@@ -98,8 +98,9 @@ void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
 
 pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b)
 {
-    uint64_t v = b->rapid ? (uint64_t)b->v_lim * p->ovr_rapid_pct / 100u
-                          : (uint64_t)b->v_req * p->ovr_feed_pct / 100u;
+    /* v_lim, v_req <= PK_UM_MIN_MAX < 2^26, overrides <= 200 %: < 2^27 */
+    uint32_t v = b->rapid ? pk_muldiv_u32(b->v_lim, p->ovr_rapid_pct, 100u)
+                          : pk_muldiv_u32(b->v_req, p->ovr_feed_pct, 100u);
     if (v > b->v_lim)
         v = b->v_lim;
     pk_v2_q4_t v2 = v2_of_um_min(v);
@@ -121,23 +122,20 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
      *                  = h / (1 + s),  h = (1 - d)/2 = sin^2(phi/2), s = cos(phi/2).
      * Hence v^2 = a*delta * s * (1 + s) / h, with h computed directly from d,
      * which keeps its precision for the small turns of dense polylines. */
-    int64_t d = 0;
+    int64_t dd = 0;
     for (unsigned i = 0; i < axes; i++)
-        d += (int64_t)u1[i] * u2[i];
-    d = pk_rshift_round64(d, 30);
-    if (d > PK_Q30_ONE)
-        d = PK_Q30_ONE;
-    if (d < -PK_Q30_ONE)
-        d = -PK_Q30_ONE;
-    int64_t h = (PK_Q30_ONE - d) / 2;            /* Q30, 0..2^30 */
-    if (h <= 0)
+        dd += (int64_t)u1[i] * u2[i];
+    dd = pk_rshift_round64(dd, 30);
+    int32_t d = dd > PK_Q30_ONE ? PK_Q30_ONE : dd < -PK_Q30_ONE ? -PK_Q30_ONE : (int32_t)dd;
+    uint32_t h = ((uint32_t)PK_Q30_ONE - (uint32_t)d) / 2u; /* Q30, 0..2^30 */
+    if (h == 0)
         return UINT64_MAX;                       /* straight on: no junction limit */
-    uint64_t s2 = (uint64_t)(PK_Q30_ONE + d) / 2; /* cos^2(phi/2), Q30 */
-    uint64_t s = pk_isqrt64(s2 << 30);           /* Q30 */
+    uint32_t s2 = ((uint32_t)PK_Q30_ONE + (uint32_t)d) / 2u; /* cos^2(phi/2), Q30 */
+    uint32_t s = pk_isqrt64((uint64_t)s2 << 30);             /* Q30 */
     if (s == 0 || delta == 0)
         return 0;                                /* full reversal or exact stop */
-    uint64_t r = (s * (PK_Q30_ONE + s)) >> 30;   /* s(1+s), Q30, < 2^31 */
-    uint64_t q = (r << 20) / (uint64_t)h;        /* s(1+s)/h, Q20 */
+    uint32_t r = pk_mulshr_u32(s, (uint32_t)PK_Q30_ONE + s, 30); /* s(1+s), Q30, <= 2^31 */
+    uint64_t q = ((uint64_t)r << 20) / h;        /* s(1+s)/h, Q20 */
     uint64_t ad = (uint64_t)a * (uint64_t)delta; /* < 2^27 * 2^14 = 2^41 */
     /* v2 (Q4) = ad * q >> 16; saturate */
     if (q != 0 && ad > (UINT64_MAX >> 1) / q)
@@ -216,7 +214,7 @@ pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_A
     return v_q2 * v_q2;                            /* (µm/s)^2 x 16 = Q4 */
 }
 
-int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
+int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
                         pk_um_min_t feed, uint8_t flags)
 {
@@ -224,8 +222,8 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
     uint64_t ss = 0;
     uint32_t events = 0;
     for (unsigned i = 0; i < axes; i++) {
-        int64_t d = d_q8[i];
-        ss += (uint64_t)(d * d);       /* |d_q8| < 2^30: 3 * 2^60 < 2^62 */
+        int32_t d = d_q8[i];
+        ss += (uint64_t)((int64_t)d * d); /* |d_q8| < 2^30: 3 * 2^60 < 2^62 */
         uint32_t st = (uint32_t)(d_steps[i] < 0 ? -d_steps[i] : d_steps[i]);
         if (st > events)
             events = st;
@@ -241,27 +239,25 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
     b->type = PK_BLK_LINE;
     b->events = events;
     b->len_q8 = len_q8;
-    uint64_t v_lim = PK_UM_MIN_MAX;
-    uint64_t acc = PK_UM_S2_MAX;
+    uint32_t v_lim = PK_UM_MIN_MAX;
+    uint32_t acc = PK_UM_S2_MAX;
     /* the direction and length of the steps, for the junction and curvature */
     (void)d_um;
     pk_q30_t u[PK_AXES] = { 0 };
     uint32_t ulen_q8 = len_q8;
+    for (unsigned i = 0; i < axes; i++) /* |d| <= len: |u| <= 2^30; |d| << 30 < 2^61 */
+        u[i] = pk_ratio_i32(d_q8[i], 30, ulen_q8);
     for (unsigned i = 0; i < axes; i++) {
-        int64_t du = d_q8[i];
-        uint64_t adu = (uint64_t)(du < 0 ? -du : du);
-        u[i] = (pk_q30_t)((du < 0 ? -1 : 1) * (int64_t)((adu << 30) / ulen_q8)); /* < 2^61 */
-    }
-    for (unsigned i = 0; i < axes; i++) {
-        int64_t d = d_q8[i];
+        int32_t d = d_q8[i];
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
-        uint64_t ad = (uint64_t)(d < 0 ? -d : d);
+        uint32_t ad = (uint32_t)(d < 0 ? -d : d);
         if (ad == 0)
             continue;
-        /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d| */
-        uint64_t vl = (uint64_t)p->lim.max_rate[i] * len_q8 / ad;
-        uint64_t al = (uint64_t)p->lim.accel[i] * len_q8 / ad;
+        /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
+         * (saturated quotients: only their minimum with the caps counts) */
+        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], len_q8, ad);
+        uint32_t al = pk_muldiv_u32(p->lim.accel[i], len_q8, ad);
         if (vl < v_lim)
             v_lim = vl;
         if (al < acc)
@@ -271,9 +267,9 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q
         v_lim = 1;
     if (acc == 0)
         acc = 1;
-    b->accel = (pk_um_s2_t)acc;
+    b->accel = acc;
     b->rapid = feed == 0u;
-    b->v_lim = (pk_um_min_t)v_lim;
+    b->v_lim = v_lim;
     b->v_req = feed;
     b->v2_nom = pk_planner_nominal_v2(p, b);
     pk_v2_q4_t vj = 0;

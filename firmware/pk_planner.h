@@ -80,7 +80,8 @@ void pk_planner_break(struct pk_planner *p);
 /**
  * Append a straight move to q.
  * @param d_q8     the displacement the steps make, µm Q8 (d_steps[i] * 1000 /
- *                 steps_per_mm[i]): the geometry is planned in steps, so the
+ *                 steps_per_mm[i]; |d_q8[i]| < 2^31, as the steps reproduce
+ *                 a displacement within 2 PK_UM_MAX): the geometry is planned in steps, so the
  *                 time given to a block is the time its steps need
  * @param d_steps  displacement in steps (|d_steps[i]| <= PK_PLANNER_MAX_STEPS)
  * @param d_um     the exact displacement requested, µm (|d_um[i]| < 2^23): the
@@ -98,7 +99,7 @@ void pk_planner_break(struct pk_planner *p);
  * @retval -1 q is full (nothing changed)
  * The caller replans (pk_planner_replan) after appending.
  */
-int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int64_t d_q8[PK_AXES],
+int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
                         pk_um_min_t feed, uint8_t flags);
 /** pk_planner_add_line flags. */

@@ -100,10 +100,10 @@ static pk_q30_t cos_deg_q30(uint32_t deg)
     const int64_t one = PK_Q30_ONE;
     int64_t x = (int64_t)deg * 18740330; /* pi/180 in Q30 */
     int64_t x2 = (x * x) >> 30;
-    static const int64_t den[7] = { 182, 132, 90, 56, 30, 12, 2 };
+    static const uint8_t den[7] = { 182, 132, 90, 56, 30, 12, 2 };
     int64_t t = one;
     for (unsigned i = 0; i < 7; i++)
-        t = one - ((x2 * t) >> 30) / den[i];
+        t = one - ((x2 * t) >> 30) / (int64_t)den[i];
     return (pk_q30_t)(neg ? -t : t);
 }
 
@@ -129,6 +129,8 @@ int pk_stroke_check(const struct pk_smooth_cfg *s)
     if (s == NULL || s->mode > PK_SMOOTH_TOLERANCE || s->sharp_turn_deg > 180u)
         return -1;
     if (s->mode == PK_SMOOTH_FIXED) {
+        if (!PK_STROKE_FIXED)
+            return -2; /* the mode is not built into this firmware */
         if (s->scheme > PK_SCHEME_DLG || s->depth > PK_MAX_DEPTH)
             return -1;
         if (s->scheme == PK_SCHEME_BSPLINE && (s->degree < 1u || s->degree > 7u))
@@ -185,19 +187,28 @@ int32_t pk_stroke_blend_budget(pk_um_t tol_um, pk_um_t chord_err_um)
 
 /* ------------------------------------------------------------ geometry */
 
-/* |d| in µm Q8; |d[i]| < 2^23 (differences of coordinates within ±PK_UM_MAX). */
-static uint32_t len_q8(const int64_t *d, unsigned n)
+/* Differences of coordinates within ±PK_UM_MAX: |d[i]| < 2^23, 32 bits. */
+
+/* |d| in µm Q8 (< 2^23 * sqrt(3) * 2^8 < 2^31). */
+static uint32_t len_q8(const int32_t *d, unsigned n)
 {
     uint64_t ss = 0;
     for (unsigned i = 0; i < n; i++)
-        ss += (uint64_t)(d[i] * d[i]);
+        ss += (uint64_t)((int64_t)d[i] * d[i]);
     return pk_isqrt64(ss << 16); /* < 3 * 2^46 * 2^16 < 2^64 */
 }
 
-static void diff(const pk_um_t a[PK_AXES], const pk_um_t b[PK_AXES], int64_t d[PK_AXES])
+static void diff(const pk_um_t a[PK_AXES], const pk_um_t b[PK_AXES], int32_t d[PK_AXES])
 {
     for (unsigned i = 0; i < PK_AXES; i++)
-        d[i] = (int64_t)b[i] - a[i];
+        d[i] = b[i] - a[i];
+}
+
+/* (a b + c d) / 2^30, rounded down: Q1.30 products summed in 64 bits (the
+ * rotations of the decimator's cone; the result is a Q1.30 component). */
+static int32_t mac2_q30(int32_t a, int32_t b, int32_t c, int32_t d)
+{
+    return (int32_t)(((int64_t)a * b + (int64_t)c * d) >> 30);
 }
 
 /* Is the kink at a corner (the exact path: Grbl's junction deviation and the
@@ -207,29 +218,26 @@ static void diff(const pk_um_t a[PK_AXES], const pk_um_t b[PK_AXES], int64_t d[P
  * shorter leg), driven at the planner's sideways acceleration. A heuristic
  * choice only: either way the path is within the tolerance and the planner
  * keeps the limits. */
-static bool kink_slower(const struct pk_stroke *st, const int64_t u1[PK_AXES],
-                        const int64_t u2[PK_AXES], uint32_t l1_q8, uint32_t l2_q8, uint32_t cap,
-                        int64_t cos_q30, uint64_t sin_q30)
+static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
+                        const pk_q30_t u2[PK_AXES], uint32_t l1_q8, uint32_t l2_q8, uint32_t cap,
+                        int32_t cos_q30)
 {
-    pk_q30_t a[PK_AXES] = { 0 }, b[PK_AXES] = { 0 };
-    for (unsigned i = 0; i < st->axes; i++) {
-        a[i] = (pk_q30_t)u1[i];
-        b[i] = (pk_q30_t)u2[i];
-    }
-    pk_v2_q4_t kink = pk_planner_junction_v2(a, b, st->axes, st->dyn.a_min, st->dyn.delta_um);
-    pk_v2_q4_t kc = pk_planner_curvature_v2(a, b, st->axes, l1_q8, l2_q8, st->dyn.a_side);
+    pk_v2_q4_t kink = pk_planner_junction_v2(u1, u2, st->axes, st->dyn.a_min, st->dyn.delta_um);
+    pk_v2_q4_t kc = pk_planner_curvature_v2(u1, u2, st->axes, l1_q8, l2_q8, st->dyn.a_side);
     if (kc < kink)
         kink = kc;
-    uint64_t h_q8 = (uint64_t)cap << 8, lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;
-    if (h_q8 > lmin)
-        h_q8 = lmin;
-    /* cos^2(phi/2) = (1 + cos)/2, sin(phi/2) = sqrt((1 - cos)/2), Q30 */
-    uint64_t c2 = (uint64_t)(PK_Q30_ONE + cos_q30) / 2u;
-    uint64_t sh = pk_isqrt64(((uint64_t)(PK_Q30_ONE - cos_q30) / 2u) << 30);
-    (void)sin_q30;
+    /* h = min(cap << 8, lmin) without the 38-bit shift: cap << 8 > lmin
+     * exactly when cap > lmin >> 8 (integers) */
+    uint32_t lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;
+    uint64_t h_q8 = cap > (lmin >> 8) ? lmin : cap << 8;
+    /* cos^2(phi/2) = (1 + cos)/2, sin(phi/2) = sqrt((1 - cos)/2), Q30. In 64
+     * bits: the unit vectors' rounding can put cos a hair beyond ±2^30, and
+     * the result must stay that of the 64-bit expressions there too. */
+    uint64_t c2 = (uint64_t)((int64_t)PK_Q30_ONE + cos_q30) / 2u;
+    uint32_t sh = pk_isqrt64(((uint64_t)((int64_t)PK_Q30_ONE - cos_q30) / 2u) << 30);
     if (sh == 0)
         return true;
-    uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10);         /* µm Q8 */
+    uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10); /* µm Q8 */
     /* v^2 (Q4) = a * r: a (µm/s^2) * r_q8 / 256 * 16 */
     pk_v2_q4_t blend = ((uint64_t)st->dyn.a_side * r_q8) >> 4;
     /* the blend must win clearly: its decimated chords are less regular
@@ -243,47 +251,51 @@ static bool kink_slower(const struct pk_stroke *st, const int64_t u1[PK_AXES],
 static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
                            const pk_um_t b[PK_AXES], const pk_um_t c[PK_AXES], pk_um_t err)
 {
-    int64_t d1[PK_AXES], d2[PK_AXES];
+    int32_t d1[PK_AXES], d2[PK_AXES];
     diff(a, b, d1);
     diff(b, c, d2);
     unsigned n = st->axes;
     uint32_t l1 = len_q8(d1, n), l2 = len_q8(d2, n);
     if (l1 == 0 || l2 == 0)
         return 0;
-    int64_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
+    /* unit vectors, Q30: |d[i]| << 8 <= l (l = floor(256 |d|)), so |u[i]| <= 2^30;
+     * |d| << 38 < 2^61 */
+    pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
     for (unsigned i = 0; i < n; i++) {
-        u1[i] = (d1[i] * ((int64_t)1 << 38)) / l1; /* Q30; |d| << 38 < 2^61 */
-        u2[i] = (d2[i] * ((int64_t)1 << 38)) / l2;
+        u1[i] = pk_ratio_i32(d1[i], 38, l1);
+        u2[i] = pk_ratio_i32(d2[i], 38, l2);
     }
-    int64_t dot = 0;
+    /* |u| <= 2^30 (1 + 2^-12): the dot product and the cross products, Q30
+     * after the shift, fit 32 bits */
+    int64_t dot64 = 0;
     for (unsigned i = 0; i < n; i++)
-        dot += u1[i] * u2[i];
-    dot >>= 30;
+        dot64 += (int64_t)u1[i] * u2[i];
+    int32_t dot = (int32_t)(dot64 >> 30);
     if (dot < st->cos_sharp)
         return 0;
     uint64_t s2 = 0;                 /* |u1 x u2|^2 in Q60 */
     if (n == 2) {
-        int64_t cr = (u1[0] * u2[1] - u1[1] * u2[0]) >> 30;
-        s2 = (uint64_t)(cr * cr);
+        int32_t cr = mac2_q30(u1[0], u2[1], -u1[1], u2[0]);
+        s2 = (uint64_t)((int64_t)cr * cr);
     } else {
         for (unsigned i = 0; i < 3; i++) {
             unsigned j = (i + 1u) % 3u, k = (i + 2u) % 3u;
-            int64_t cr = (u1[j] * u2[k] - u1[k] * u2[j]) >> 30;
-            s2 += (uint64_t)(cr * cr);
+            int32_t cr = mac2_q30(u1[j], u2[k], -u1[k], u2[j]);
+            s2 += (uint64_t)((int64_t)cr * cr);
         }
     }
-    uint64_t sin_q30 = pk_isqrt64(s2);
+    uint32_t sin_q30 = pk_isqrt64(s2);
     int32_t e = pk_stroke_blend_budget(st->tol_um, err);
     if (e <= 0)
         return 0;
     if (sin_q30 == 0)
         return dot > 0 ? CAP_INF : 0;
-    uint64_t cap = (((uint64_t)4 * (uint64_t)e) << 30) / sin_q30; /* 4E < 2^16 */
+    uint32_t cap = pk_muldiv_u32(4u * (uint32_t)e, (uint32_t)1 << 30, sin_q30); /* 4E < 2^16 */
     if (cap > CAP_INF)
         cap = CAP_INF;
-    if (st->dyn.a_side > 0 && !kink_slower(st, u1, u2, l1, l2, (uint32_t)cap, dot, sin_q30))
+    if (st->dyn.a_side > 0 && !kink_slower(st, u1, u2, l1, l2, cap, dot))
         return 0; /* the programmed corner is as fast: keep it exact */
-    return (uint32_t)cap;
+    return cap;
 }
 
 /* ------------------------------------------------------------ kernel feed */
@@ -298,27 +310,30 @@ static void queue_pt_f(struct pk_stroke *st, const pk_um_t p[PK_AXES], bool corn
 
 static void queue_pt(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { queue_pt_f(st, p, false); }
 
-/* p = a + d * num / den (rounded to nearest), per axis. */
-static void along(const pk_um_t a[PK_AXES], const int64_t d[PK_AXES], uint64_t num, uint64_t den,
+/* p = a + d * num / den (rounded to nearest), per axis (num <= den < 2^31). */
+static void along(const pk_um_t a[PK_AXES], const int32_t d[PK_AXES], uint32_t num, uint32_t den,
                   pk_um_t p[PK_AXES])
 {
     for (unsigned i = 0; i < PK_AXES; i++)
-        p[i] = (pk_um_t)(a[i] + pk_div_round64(d[i] * (int64_t)num, (int64_t)den));
+        p[i] = (pk_um_t)(a[i] + pk_div_round64((int64_t)d[i] * num, (int64_t)den));
 }
 
 /* Queue the points added on leg v[0] -> v[1] (caps known for both ends). */
 static void queue_leg(struct pk_stroke *st)
 {
     const pk_um_t *a = st->v[0], *b = st->v[1];
-    int64_t d[PK_AXES];
+    int32_t d[PK_AXES];
     diff(a, b, d);
-    uint64_t lq = len_q8(d, st->axes);               /* L, µm Q8 */
-    uint64_t ca = (uint64_t)st->cap[0] << 8, cb = (uint64_t)st->cap[1] << 8; /* Q8 */
+    uint32_t lq = len_q8(d, st->axes);               /* L, µm Q8, < 2^31 */
+    /* the caps in µm Q8, each capped at L: every use below compares them
+     * with L or less (up to CAP_INF << 8 = 2^38 otherwise) */
+    uint32_t ca = st->cap[0] > (lq >> 8) ? lq : st->cap[0] << 8;
+    uint32_t cb = st->cap[1] > (lq >> 8) ? lq : st->cap[1] << 8;
     if (lq == 0 || (2u * ca >= lq && 2u * cb >= lq))
         return;                                       /* blends meet at the midpoint */
-    uint64_t half = lq / 2u, quarter = lq / 4u;
-    uint64_t fb = ca < quarter ? ca : quarter;        /* blend at a, forward */
-    uint64_t fa = cb < quarter ? cb : quarter;        /* blend at b, backward */
+    uint32_t half = lq / 2u, quarter = lq / 4u;
+    uint32_t fb = ca < quarter ? ca : quarter;        /* blend at a, forward */
+    uint32_t fa = cb < quarter ? cb : quarter;        /* blend at b, backward */
     fb = ca < half - fa ? ca : half - fa;
     fa = cb < half - fb ? cb : half - fb;
     pk_um_t y[PK_AXES], x[PK_AXES];
@@ -395,16 +410,18 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
         return -1;
     st->open = true;
     st->finishing = false;
+#if PK_STROKE_FIXED
     st->split_pending = false;
     st->have_pend = false;
+    st->n_in = 1;
+    memcpy(st->prev2, start, sizeof st->prev2);
+#endif
     st->have_out = false;
     st->emit_n = 0;
-    st->n_in = 1;
     st->nq = 0;
     st->q_head = 0;
     st->ncorner = 0;
     memcpy(st->prev, start, sizeof st->prev);
-    memcpy(st->prev2, start, sizeof st->prev2);
     if (st->mode == PK_SMOOTH_OFF)
         return 0;
     kernel_start(st, start);
@@ -421,17 +438,18 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     return 0;
 }
 
+#if PK_STROKE_FIXED
 /* FIXED: does the vertex prev (between prev2 and q) have to stay sharp? */
 static bool must_split(const struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
     if (st->n_in < 2)
         return false;
-    int64_t a[PK_AXES], b[PK_AXES];
+    int32_t a[PK_AXES], b[PK_AXES];
     diff(st->prev2, st->prev, a);
     diff(st->prev, q, b);
     int64_t dot = 0;
     for (unsigned i = 0; i < PK_AXES; i++)
-        dot += a[i] * b[i];
+        dot += (int64_t)a[i] * b[i];
     uint32_t la = len_q8(a, PK_AXES), lb = len_q8(b, PK_AXES);
     if (la == 0 || lb == 0)
         return false;
@@ -440,12 +458,39 @@ static bool must_split(const struct pk_stroke *st, const pk_um_t q[PK_AXES])
     return cos_q30 < st->cos_sharp;
 }
 
+/* FIXED: the next vertex into the kernel (or held, at a split or a full kernel). */
+static int fixed_add(struct pk_stroke *st, const pk_um_t p[PK_AXES])
+{
+    if (must_split(st, p)) {
+        memcpy(st->pend, p, sizeof st->pend);
+        st->have_pend = true;
+        st->split_pending = true;
+        pk_refine_finish(&st->k);
+        return PK_OK;
+    }
+    int r = pk_refine_push(&st->k, p);
+    if (r == PK_EBUSY) {
+        memcpy(st->pend, p, sizeof st->pend);
+        st->have_pend = true;
+    } else if (r != PK_OK) {
+        return r;
+    } else {
+        observe(st, PK_STROKE_EV_CTRL, p);
+    }
+    return PK_OK;
+}
+#endif
+
 int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_err_um)
 {
     if (!st->open || st->finishing)
         return PK_ESTATE;
-    if (st->have_pend || st->have_out || st->split_pending || st->nq > 0)
+    if (st->have_out || st->nq > 0)
         return PK_EBUSY;
+#if PK_STROKE_FIXED
+    if (st->have_pend || st->split_pending)
+        return PK_EBUSY;
+#endif
     if (memcmp(p, st->prev, sizeof st->prev) == 0)
         return PK_OK; /* zero-length: nothing to draw, no vertex */
     if (st->mode == PK_SMOOTH_OFF) {
@@ -457,25 +502,18 @@ int pk_stroke_add(struct pk_stroke *st, const pk_um_t p[PK_AXES], pk_um_t chord_
         st->nv++;
         if (st->nv == 3)
             advance(st);
-    } else if (must_split(st, p)) {
-        memcpy(st->pend, p, sizeof st->pend);
-        st->have_pend = true;
-        st->split_pending = true;
-        pk_refine_finish(&st->k);
     } else {
-        int r = pk_refine_push(&st->k, p);
-        if (r == PK_EBUSY) {
-            memcpy(st->pend, p, sizeof st->pend);
-            st->have_pend = true;
-        } else if (r != PK_OK) {
+#if PK_STROKE_FIXED
+        int r = fixed_add(st, p);
+        if (r != PK_OK)
             return r;
-        } else {
-            observe(st, PK_STROKE_EV_CTRL, p);
-        }
+#endif
     }
+#if PK_STROKE_FIXED
     memcpy(st->prev2, st->prev, sizeof st->prev);
-    memcpy(st->prev, p, sizeof st->prev);
     st->n_in++;
+#endif
+    memcpy(st->prev, p, sizeof st->prev);
     return PK_OK;
 }
 
@@ -484,8 +522,10 @@ void pk_stroke_finish(struct pk_stroke *st)
     if (!st->open || st->finishing)
         return;
     st->finishing = true;
+#if PK_STROKE_FIXED
     if (st->mode == PK_SMOOTH_FIXED && !st->have_pend)
         pk_refine_finish(&st->k);
+#endif
     /* TOLERANCE: the last leg is queued once the queue has drained (pull) */
 }
 
@@ -500,21 +540,27 @@ static void emit(struct pk_stroke *st, const pk_um_t p[PK_AXES]) { emit_f(st, p,
 
 /* ------------------------------------------------------------ decimator */
 
-static int64_t cross2(const int32_t a[2], int64_t bx, int64_t by) { return a[0] * by - a[1] * bx; }
+/* The sign of a x b (b: a chord's difference, |b| < 2^23, or a Q1.30 direction). */
+static int cross2(const int32_t a[2], int32_t bx, int32_t by)
+{
+    int64_t c = (int64_t)a[0] * by - (int64_t)a[1] * bx;
+    return c > 0 ? 1 : c < 0 ? -1 : 0;
+}
 
 /* The two directions from the anchor tangent to the disc of radius tol around
  * a point at d (|d| = r > tol), Q1.30, clockwise one first. */
-static void tangents(const int64_t d[2], uint32_t r_q8, uint32_t tol_q8, int32_t rt[2],
+static void tangents(const int32_t d[2], uint32_t r_q8, uint32_t tol_q8, int32_t rt[2],
                      int32_t lt[2])
 {
-    int64_t ux = (d[0] * ((int64_t)1 << 38)) / r_q8, uy = (d[1] * ((int64_t)1 << 38)) / r_q8;
+    /* |d[i]| << 8 <= r and tol < r: every factor is within ±2^30 */
+    int32_t ux = pk_ratio_i32(d[0], 38, r_q8), uy = pk_ratio_i32(d[1], 38, r_q8);
     uint64_t rr = (uint64_t)r_q8 * r_q8, tt = (uint64_t)tol_q8 * tol_q8;
-    int64_t cb = (int64_t)(((uint64_t)pk_isqrt64(rr - tt) << 30) / r_q8); /* cos(beta) */
-    int64_t sb = (int64_t)(((uint64_t)tol_q8 << 30) / r_q8);             /* sin(beta) */
-    rt[0] = (int32_t)((ux * cb + uy * sb) >> 30);
-    rt[1] = (int32_t)((uy * cb - ux * sb) >> 30);
-    lt[0] = (int32_t)((ux * cb - uy * sb) >> 30);
-    lt[1] = (int32_t)((uy * cb + ux * sb) >> 30);
+    int32_t cb = (int32_t)pk_muldiv_u32(pk_isqrt64(rr - tt), (uint32_t)1 << 30, r_q8); /* cos(beta) */
+    int32_t sb = (int32_t)pk_muldiv_u32(tol_q8, (uint32_t)1 << 30, r_q8);             /* sin(beta) */
+    rt[0] = mac2_q30(ux, cb, uy, sb);
+    rt[1] = mac2_q30(uy, cb, -ux, sb);
+    lt[0] = mac2_q30(ux, cb, -uy, sb);
+    lt[1] = mac2_q30(uy, cb, ux, sb);
 }
 
 /* tol for the decimator: T/4 (FIXED: PK_STROKE_FIXED_DEC_UM) in µm Q8, a
@@ -529,7 +575,7 @@ static uint32_t dec_tol_q8(const struct pk_stroke *st)
 /* Start a chord from the anchor to q. */
 static void cand_start(struct pk_stroke *st, const pk_um_t q[PK_AXES])
 {
-    int64_t d[2] = { (int64_t)q[0] - st->anchor[0], (int64_t)q[1] - st->anchor[1] };
+    int32_t d[2] = { q[0] - st->anchor[0], q[1] - st->anchor[1] };
     uint32_t r = len_q8(d, 2), tol = dec_tol_q8(st);
     memcpy(st->cand, q, sizeof st->cand);
     st->cand_r_q8 = r;
@@ -586,7 +632,7 @@ static void decimate_pt(struct pk_stroke *st, const pk_um_t q[PK_AXES])
         cand_start(st, q);
         return;
     }
-    int64_t d[2] = { (int64_t)q[0] - st->anchor[0], (int64_t)q[1] - st->anchor[1] };
+    int32_t d[2] = { q[0] - st->anchor[0], q[1] - st->anchor[1] };
     uint32_t r = len_q8(d, 2);
     bool ok = !st->cone_empty && r >= st->cand_r_q8
               && (st->cone_full
@@ -625,8 +671,10 @@ void pk_stroke_reset(struct pk_stroke *st)
         pk_refine_reset(&st->k);
     st->open = false;
     st->finishing = false;
+#if PK_STROKE_FIXED
     st->split_pending = false;
     st->have_pend = false;
+#endif
     st->have_out = false;
     st->emit_n = 0;
     st->nq = 0;
@@ -688,6 +736,7 @@ static int feed_kernel(struct pk_stroke *st)
         }
         return PK_NEED_INPUT;
     }
+#if PK_STROKE_FIXED
     if (st->have_pend && !st->split_pending) {
         int pr = pk_refine_push(&st->k, st->pend);
         if (pr == PK_OK) {
@@ -700,6 +749,7 @@ static int feed_kernel(struct pk_stroke *st)
         if (pr != PK_EBUSY)
             return pr;
     }
+#endif
     return PK_NEED_INPUT;
 }
 
@@ -739,12 +789,17 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
             return PK_NEED_INPUT;
         }
         if (r == PK_END) {
+#if PK_STROKE_FIXED
             observe(st, PK_STROKE_EV_END, st->mode == PK_SMOOTH_TOLERANCE ? st->v[0] : st->prev2);
+#else
+            observe(st, PK_STROKE_EV_END, st->v[0]);
+#endif
             if (st->have_cand) {
                 emit_f(st, st->cand, true); /* the stroke's end, or a split vertex */
                 memcpy(st->anchor, st->cand, sizeof st->anchor);
                 st->have_cand = false;
             }
+#if PK_STROKE_FIXED
             if (st->split_pending) {
                 /* FIXED: the stroke ended at the sharp vertex (prev2 holds it) */
                 st->split_pending = false;
@@ -762,6 +817,7 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
                     pk_refine_finish(&st->k);
                 continue;
             }
+#endif
             st->kernel_end = true;
             continue;
         }

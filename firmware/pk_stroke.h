@@ -45,6 +45,13 @@
 #error "PK_STROKE_TOL_DEPTH must be 1..PK_MAX_DEPTH"
 #endif
 
+/** 1: the FIXED mode is built in (default); 0: pk_stroke_check refuses it
+ *  (-2, not built into this firmware), for images short of flash that
+ *  smooth in the tolerance mode only. */
+#ifndef PK_STROKE_FIXED
+#define PK_STROKE_FIXED 1
+#endif
+
 /** FIXED mode: refined points within this many µm of a chord through their
  *  neighbours are merged into it (nearly collinear points make blocks of a
  *  few steps, whose step-rounded directions would only slow the machine). */
@@ -81,13 +88,15 @@ struct pk_stroke {
     pk_um_t prev[PK_AXES];     /**< last vertex accepted */
 
     /* ---- OFF / FIXED ---- */
+    bool have_out;             /**< OFF: out[] waits to be pulled */
+    pk_um_t out[PK_AXES];
+#if PK_STROKE_FIXED
     bool split_pending;        /**< FIXED: restart at prev2 with pend[] once drained */
     bool have_pend;            /**< pend[] waits to be pushed */
-    bool have_out;             /**< OFF: out[] waits to be pulled */
     uint32_t n_in;             /**< FIXED: vertices of the current kernel stroke */
     pk_um_t prev2[PK_AXES];
     pk_um_t pend[PK_AXES];
-    pk_um_t out[PK_AXES];
+#endif
 
     /* ---- TOLERANCE: vertex look-ahead ---- */
     uint8_t nv;                /**< vertices held (1..3): v[0] is emitted up to itself */

@@ -12,15 +12,21 @@
 # its pins, timers and vectors) and board.mk, which sets
 #   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
 #   BOARD_FLASH_MAX BOARD_RAM_MAX BOARD_STEP_ISR BOARD_STATICS [BOARD_CFLAGS]
-#   [BOARD_HOST_DEFS] [BOARD_LDSCRIPT] [BOARD_KERNEL_LIMIT]
+#   [BOARD_HOST_DEFS] [BOARD_LDSCRIPT] [BOARD_LTO]
+#   [BOARD_COLD_CFLAGS] [BOARD_HOT_SRC]
 # Every image's objects, firmware and board alike, pass tests/targets/fwcheck.py
 # (no heap, stdio, float; no software divide on the step path, followed from
 # the board's step-timer interrupt handler BOARD_STEP_ISR as well as from the
 # core's step functions; static storage only for BOARD_STATICS, OBJ.o:SYMBOL).
 # BOARD_HOST_DEFS: knobs that differ in $(FW_DIR)/<board>/host/plotkin, the
 # host tool built with the board's knobs (the comparator of the whole-chip tests).
-# BOARD_KERNEL_LIMIT = 0 links the image without the kernel's limit stage
-# (hal/pk_kernel_nolimit.c says why and how); default 1.
+# BOARD_LTO = 1 links with link-time optimisation. The objects are then fat
+# (-ffat-lto-objects: machine code beside the LTO bytecode), so the object
+# gate reads the same code it reads without LTO; LTO only inlines and drops
+# across files, it adds no call, divide or static the objects do not have.
+# BOARD_COLD_CFLAGS (e.g. -fno-inline) apply to every source but those in
+# BOARD_HOT_SRC (the step path and the interrupt handlers, which keep the
+# speed of the plain flags).
 # BOARD_SRC is the board's one source list (backend files + hal/pk_app.c +
 # hal/pk_uart.c); every firmware/*.c is compiled with the board's knobs and
 # linked with --gc-sections, so only what the image uses stays in it.
@@ -41,7 +47,6 @@ FW_BIN_arm  := $(ARM_PREFIX)
 FW_ARCH_CFLAGS_avr := -mrelax
 FW_RELAX_avr := -Wl,--defsym=__TEXT_REGION_LENGTH__=0x40000 -Wl,--defsym=__DATA_REGION_LENGTH__=0xffa0
 FW_RELAX_arm := -Wl,--defsym=__pk_flash_len=0x100000 -Wl,--defsym=__pk_ram_len=0x100000
-FW_NOLIMIT_LDFLAGS := $(foreach f,setup ready exhausted feed finish emit,-Wl,--wrap=pk_limit_$(f))
 
 # $(call fw_board,DIR,NAME): read DIR/board.mk into FWB_NAME_* and make rules
 define fw_board
@@ -55,14 +60,17 @@ BOARD_CFLAGS :=
 BOARD_HOST_DEFS :=
 BOARD_LDSCRIPT :=
 BOARD_LDFLAGS :=
-BOARD_KERNEL_LIMIT := 1
+BOARD_LTO := 0
+BOARD_COLD_CFLAGS :=
+BOARD_HOT_SRC :=
 BOARD_STEP_ISR :=
 BOARD_STATICS :=
 include $(1)/board.mk
-ifeq ($$(BOARD_KERNEL_LIMIT),0)
-BOARD_SRC += hal/pk_kernel_nolimit.c
-BOARD_LDFLAGS += $(FW_NOLIMIT_LDFLAGS)
+ifeq ($$(BOARD_LTO),1)
+BOARD_CFLAGS += -flto -ffat-lto-objects
 endif
+FWB_$(2)_HOT := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(BOARD_HOT_SRC))
+FWB_$(2)_COLD := $$(BOARD_COLD_CFLAGS)
 FWB_$(2)_ARCH := $$(BOARD_ARCH)
 FWB_$(2)_MCU := $$(BOARD_MCU)
 FWB_$(2)_CC := $$(FW_CC_$$(BOARD_ARCH))
@@ -79,14 +87,16 @@ FWB_$(2)_LDFLAGS := $$(BOARD_LDFLAGS) $$(FW_RELAX_$$(BOARD_ARCH))
 FWB_$(2)_CHECK := $$(foreach f,$$(TARGETS_STEP_FUNCS) $$(BOARD_STEP_ISR),--step-func $$(f)) \
                   $$(foreach x,$$(BOARD_STATICS),--allow-static $$(x)) \
                   --target $(2):$$(FW_BIN_$$(BOARD_ARCH)):no
-FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(TGT_FW_SRC) $$(BOARD_SRC))
+FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$(TGT_FW_SRC) $$(BOARD_SRC))
 
 $(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
-	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) \
+	  $$(if $$(filter $$@,$$(FWB_$(2)_HOT)),,$$(FWB_$(2)_COLD)) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/obj/hal/%.o: hal/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
-	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
+	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) \
+	  $$(if $$(filter $$@,$$(FWB_$(2)_HOT)),,$$(FWB_$(2)_COLD)) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -Wl,-Map=$$(@:.elf=.map) \
 	  $$(if $$(FWB_$(2)_LDSCRIPT),-T $$(FWB_$(2)_LDSCRIPT)) $$(FWB_$(2)_LDFLAGS) -o $$@ $$(FWB_$(2)_OBJ) -lgcc
@@ -105,7 +115,7 @@ $(FW_DIR)/$(2)/obj/tests/avr/%.o: tests/avr/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/hal_selftest.hex: $(FW_DIR)/$(2)/obj/tests/avr/hal_selftest.o \
-    $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(filter-out %_main.c hal/pk_app.c hal/pk_kernel_nolimit.c,$$(BOARD_SRC)))
+    $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(filter-out %_main.c hal/pk_app.c,$$(BOARD_SRC)))
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -o $$(@:.hex=.elf) $$^
 	$$(FWB_$(2)_BIN)objcopy -O ihex -R .eeprom $$(@:.hex=.elf) $$@
 $(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk

@@ -64,13 +64,13 @@ static void test_micrometres_round_to_the_nearest_step_like_a_double_reference(v
 static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES])
 {
     pk_steps_t st[PK_AXES] = { 0 };
-    int64_t dq[PK_AXES] = { 0 };
+    int32_t dq[PK_AXES] = { 0 };
     int mag = (xr() % 3 == 0) ? 20000 : 500;
     d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
     d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
     for (int i = 0; i < 2; i++) {
         st[i] = (pk_steps_t)(d[i] * 80 / 1000);
-        dq[i] = (int64_t)st[i] * 1000 * 256 / 80;
+        dq[i] = (int32_t)((int64_t)st[i] * 1000 * 256 / 80);
     }
     if (xr() % 17 == 0)
         (void)pk_planner_add_stop(p, q, PK_BLK_DWELL, 0, 0, 0);

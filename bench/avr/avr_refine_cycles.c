@@ -7,8 +7,8 @@
  * would (push, pull until NEED_INPUT, finish, pull until END) and reports the
  * cycles of the whole stroke divided by the points it produced: cycles per
  * output point, amortising init, push and finish (plus closed Chaikin at
- * depth 4). Linked like the board images, without the kernel's limit stage
- * (hal/pk_kernel_nolimit.c). The consumer only stores
+ * depth 4). Built like the board images, without the kernel's limit stage
+ * (-DPK_BUILD_LIMIT=0). The consumer only stores
  * the point in a volatile sink (a few cycles). Built once per PK_AXES value.
  */
 #include <stdint.h>
@@ -91,7 +91,7 @@ int main(void)
     for (uint8_t d = 1; d <= 6; d++)
         pk_avr_measure("cubic", 3, d, 0, 0);
     /* Closed strokes. (The limit stage is not measured here: the board
-     * images link without it, hal/pk_kernel_nolimit.c, and its tables do not
+     * images are built without it (-DPK_BUILD_LIMIT=0), and its tables do not
      * fit the RAM of any AVR simavr models while avr-gcc copies them there.) */
     pk_avr_measure("chaikin closed", 2, 4, 0, 1);
     uint8_t *q = &__heap_start;

@@ -17,7 +17,10 @@ static RAM. It prints the table beside Grbl 1.1h's figures (same compiler),
 then per image the flash and RAM of every module (from the map), the largest
 symbols, the calls to 64-bit libgcc helpers per module, and the size of the
 structs that hold the state (STRUCTS.o: tests/targets/fw_structs.c compiled
-with the board's flags).
+with the board's flags). In an image linked with link-time optimisation the
+map names only the linker's partitions, so the modules are then those of the
+symbols' source files (the debug information; code inlined across files
+counts in the file of the function it went into).
 
 Exit status 1 if any image does not fit (the table says by how much), or a
 measurement that should have been possible failed.
@@ -128,6 +131,69 @@ def func_module(mapsecs):
     for out, sec, size, mod in mapsecs:
         if out == '.text' and sec.startswith('.text.'):
             res[sec[len('.text.'):]] = mod
+    return res
+
+
+LTRANS = re.compile(r'\.ltrans\d*(\.ltrans)?$|^ltrans')
+
+
+def base_name(name):
+    """A symbol's name without the suffixes LTO and local statics add."""
+    return re.sub(r'(\.(lto_priv|constprop|isra|part)\.\d+|\.\d+)+$', '', name)
+
+
+def source_modules(binp, elf):
+    """[(size, type, name, module, section kind)] of the image's symbols by source file: code
+    from the line table (nm -l); data from the image's objects (the fat
+    objects next to the ELF, obj/**.o), whose symbol tables name them."""
+    objsyms = {}
+    objdir = os.path.join(os.path.dirname(elf), 'obj')
+    for root, _, files in os.walk(objdir):
+        for fn in files:
+            if not fn.endswith('.o') or fn == 'fw_structs.o' or 'tests' in root:
+                continue
+            for ln in run([binp + 'objdump', '-t', os.path.join(root, fn)]).splitlines():
+                g = ln.split()
+                if len(g) >= 5 and 'O' in g[1:-3] and re.match(r'\.(data|bss|rodata)', g[-3]):
+                    sec = '.rodata' if g[-3].startswith('.rodata') else g[-3].split('.')[1]
+                    objsyms.setdefault(base_name(g[-1]), set()).add((fn[:-2], sec))
+    res = []
+    for ln in run([binp + 'nm', '-l', '-S', '--defined-only', elf]).splitlines():
+        f = ln.split('\t')
+        g = f[0].split()
+        if len(g) != 4:
+            continue
+        sec = '.text'
+        if g[2] in 'tTwW':
+            if len(f) < 2:
+                continue
+            mod = os.path.splitext(os.path.basename(f[1].rsplit(':', 1)[0]))[0]
+        else:
+            mods = objsyms.get(base_name(g[3]), set())
+            if len(mods) != 1:
+                continue
+            mod, sec = next(iter(mods))
+        res.append((int(g[1], 16), g[2], g[3], mod, sec))
+    return res
+
+
+def lto_modules(mapsecs, srcsyms):
+    """Split the map's link-time-optimised partitions into source modules."""
+    kind = {'.text': 'tTwW', '.data': 'dD', '.rodata': 'rR', '.bss': 'bB', '.noinit': 'bB'}
+    res, lto_total = [], {}
+    for out, sec, size, mod in mapsecs:
+        if LTRANS.search(mod):
+            lto_total[out] = lto_total.get(out, 0) + size
+        else:
+            res.append((out, sec, size, mod))
+    for out, total in lto_total.items():
+        got = 0
+        for size, t, name, mod, sec in srcsyms:
+            if t in kind.get(out, ''):
+                res.append((out, sec + '.' + name, size, mod))
+                got += size
+        if total > got:
+            res.append((out, out, total - got, '(LTO, no source)'))
     return res
 
 
@@ -248,6 +314,10 @@ def main(argv):
             continue
         mapf = b['elf'][:-4] + '.map'
         secs = map_sections(mapf)
+        srcsyms = None
+        if any(LTRANS.search(m) for _, _, _, m in secs):
+            srcsyms = source_modules(b['bin'], b['elf'])
+            secs = lto_modules(secs, srcsyms)
         mods = {}
         for out, sec, size, mod in secs:
             e = mods.setdefault(mod, {'flash': 0, 'data': 0, 'bss': 0, 'const_ram': 0})
@@ -262,15 +332,18 @@ def main(argv):
                 e['bss'] += size
         calls = helper_calls(b['bin'], b['elf'])
         fmod = func_module(secs)
+        if srcsyms is not None:
+            fmod.update({name: mod for _, t, name, mod, _ in srcsyms if t in 'tTwW'})
         mcalls = {}
         for fn, hs in calls.items():
             m = fmod.get(fn, '?')
             e = mcalls.setdefault(m, [0, 0])
             e[0] += sum(hs.values())
             e[1] += sum(v for h, v in hs.items() if DIV64.match(h))
-        print('\n%s: flash %s B (.text %s + .data %s), static RAM %s B; per module (from %s):'
+        print('\n%s: flash %s B (.text %s + .data %s), static RAM %s B; per module (from %s%s):'
               % (b['name'], fmt(b['flash']), fmt(b['text']), fmt(b['data']), fmt(b['data'] + b['bss']),
-                 os.path.basename(mapf)))
+                 os.path.basename(mapf), '' if srcsyms is None else
+                 ' and the debug information: link-time optimised, code inlined across files counts in its caller'))
         print('  %-22s %8s %8s %10s %8s %12s' % ('module', 'flash', 'data', '(const)', 'bss', '64-bit calls'))
         for m, e in sorted(mods.items(), key=lambda kv: -(kv[1]['flash'] + kv[1]['data'] + kv[1]['bss'])):
             c = mcalls.get(m, [0, 0])

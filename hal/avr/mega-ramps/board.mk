@@ -16,8 +16,6 @@ BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -D
 # flash, 8,192 B of RAM.
 BOARD_FLASH_MAX := 253952
 BOARD_RAM_MAX   := 8192
-# The motion core never uses the kernel's limit stage: link without it.
-BOARD_KERNEL_LIMIT := 0
 # The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
 # image's only statics (the controller and the backend instance).
 BOARD_STEP_ISR := __vector_32

@@ -6,18 +6,32 @@ BOARD_MCU   := atmega328p
 BOARD_F_CPU := 16000000UL
 BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
                hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/pk_app.c hal/pk_uart.c
-# Two axes + pen, Chaikin and the linear B-spline only, clamped ends, open
-# strokes, no limit stage (PK_BUILD_*: what PK_WIN=2 used to allow), short
+# Two axes + pen. Smoothing in the tolerance mode only (PK_STROKE_FIXED=0:
+# \$200=1 is refused), whose kernel is Chaikin with clamped ends on open
+# strokes at PK_STROKE_TOL_DEPTH = 3 levels: the kernel's Chaikin-only build
+# (pk_refine_chaikin.c), no limit stage. PK_MAX_DEPTH stays 6 (64-bit working
+# values): at PK_MAX_DEPTH <= 5 (32-bit values) a smoothed program of four
+# feed moves stalls the machine (tests/extra/board_refusals.sh runs one).
+# No G2/G3 arcs, no G5/G5.1 (error:20), Grbl's 79-byte line buffer of the
+# ATmega328P (a longer line is error:11) and its output staging; short
 # queues: see the size table of `make firmware`.
 # PK_SG_HW_PULSE=1: the AVR HAL ends step pulses itself (step_pulse), so the
 # step generator keeps its own pulse-ending path out of the step interrupt.
 BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
-               -DPK_BUILD_DEGREES=0x06 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
+               -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
-               -DPK_UART_TX_SIZE=64
+               -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0 -DPK_BUILD_G5=0 -DPK_BUILD_ARCS=0 \
+               -DPK_GRBL_LINE_MAX=79 -DPK_GRBL_OUT_SIZE=150
 # Shared register save/restore sequences: about 5 % less flash, a few cycles
-# more per call of a function that saves many registers.
-BOARD_CFLAGS := -mcall-prologues
+# more per call of a function that saves many registers. -mstrict-X: pointer
+# arithmetic stays off the X register (it has no displacement addressing).
+BOARD_CFLAGS := -mcall-prologues -mstrict-X
+# Link-time optimisation, and no inlining outside the step path and the
+# interrupt handlers (BOARD_HOT_SRC, compiled as on the Mega): flash first
+# on this part; the main loop pays a call per small helper.
+BOARD_LTO := 1
+BOARD_COLD_CFLAGS := -fno-inline
+BOARD_HOT_SRC := firmware/pk_stepgen.c hal/avr/pk_avr_timer.c hal/avr/pk_avr_uart.c hal/pk_uart.c
 # The host comparator (`plotkin sim` with this build's knobs): plotkin sim's
 # job feeds a line only when 5 requests fit (host-sim/sim_job.c), so it needs
 # a deeper request FIFO than the Grbl engine on the board; the FIFO depth
@@ -26,8 +40,6 @@ BOARD_HOST_DEFS := -UPK_MACHINE_INQ -DPK_MACHINE_INQ=8
 # ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
 BOARD_FLASH_MAX := 32256
 BOARD_RAM_MAX   := 2048
-# The motion core never uses the kernel's limit stage: link without it.
-BOARD_KERNEL_LIMIT := 0
 # The object gate (hal/firmware.mk): the step-timer interrupt handler, and the
 # image's only statics (the controller and the backend instance).
 BOARD_STEP_ISR := __vector_11
