@@ -421,6 +421,33 @@ void pk_arc_bounds(const struct pk_arc *a, int32_t lo[PK_AXES], int32_t hi[PK_AX
     if (g->straight || a->sweep == 0)
         return;
     int64_t rmax = a->r0_q8 > a->r1_q8 ? a->r0_q8 : a->r1_q8;
+    if (a->r0_q8 != a->r1_q8 && a->r0_q8 > 0 && a->r1_q8 > 0) {
+        /* A spiral (end radius != start radius): a coordinate is r(t) u(t),
+         * r between the two radii and u monotone between cardinal angles,
+         * so besides the cardinal points below its extremes are at the
+         * corners {rmin, rmax} x {start, end direction} (finding G1: a
+         * spiral at the bottom of the range went 42 µm below its end
+         * points, and out of the numeric range, inside this box). 1 µm of
+         * margin for the vertices' rounding. */
+        int64_t rmin = a->r0_q8 < a->r1_q8 ? a->r0_q8 : a->r1_q8;
+        const pk_um_t *ends[2] = { g->start, g->end };
+        const int64_t rr[2] = { a->r0_q8, a->r1_q8 };
+        for (unsigned e = 0; e < 2u; e++)
+            for (unsigned k = 0; k < 2u; k++) {
+                int64_t rho = k ? rmax : rmin;
+                for (unsigned j = 0; j < 2u; j++) {
+                    unsigned ax = j ? g->a1 : g->a0;
+                    int64_t cq = g->centre_q8[j];
+                    int64_t d = (int64_t)ends[e][ax] * 256 - cq; /* |d| < 2^32: fits with rho < 2^31 */
+                    int64_t v = cq + d / rr[e] * rho + (d % rr[e]) * rho / rr[e];
+                    int64_t vl = floor_div256(v) - 1, vh = ceil_div256(v) + 1;
+                    if (vl < lo[ax])
+                        lo[ax] = (int32_t)vl;
+                    if (vh > hi[ax])
+                        hi[ax] = (int32_t)vh;
+                }
+            }
+    }
     /* The curve reaches an axis extreme where its direction from the centre
      * is a cardinal one inside the swept range. */
     for (unsigned c = 0; c < 4; c++) {
