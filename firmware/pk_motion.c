@@ -740,23 +740,7 @@ static void take_requests(struct pk_machine *m)
          * (3.3x slower than exact on a thread-milling helix). */
         bool z_move = r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && m->cfg.axes > 2u
                       && m->stroke.mode != PK_SMOOTH_OFF && r->p[Z_AX] != m->req_z_um;
-        if (z_move) {
-            if (open) {
-                pk_stroke_finish(&m->stroke);
-                if (pk_mq_room(&m->mq) == 0)
-                    return;
-                continue;
-            }
-            if (pk_mq_room(&m->mq) == 0)
-                return;
-            m->req_z_um = r->p[Z_AX];
-            (void)plan_line(m, r->p, r->arg, true);
-            req_pop(m);
-            continue;
-        }
-        if (r->type == PK_REQ_MOVE)
-            m->req_z_um = r->p[Z_AX];
-        if (r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED) {
+        if (r->type == PK_REQ_MOVE && r->kind == PK_MOVE_FEED && !z_move) {
             if (open && (m->stroke.finishing || r->arg != m->stroke_feed)) {
                 pk_stroke_finish(&m->stroke);
                 if (pk_mq_room(&m->mq) == 0)
@@ -769,6 +753,7 @@ static void take_requests(struct pk_machine *m)
             }
             int ar = pk_stroke_add(&m->stroke, r->p, r->chord_err_um);
             if (ar == PK_OK) {
+                m->req_z_um = r->p[Z_AX];
                 req_pop(m);
                 continue;
             }
@@ -789,8 +774,9 @@ static void take_requests(struct pk_machine *m)
         if (pk_mq_room(&m->mq) == 0)
             return;
         switch (r->type) {
-        case PK_REQ_MOVE:
-            (void)plan_line(m, r->p, 0u, true);
+        case PK_REQ_MOVE: /* a rapid (arg 0), or a feed move that changes Z */
+            m->req_z_um = r->p[Z_AX];
+            (void)plan_line(m, r->p, r->arg, true);
             break;
         case PK_REQ_PEN:
             (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, 0u, r->arg);
