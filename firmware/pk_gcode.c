@@ -156,27 +156,23 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
     return PK_GC_OK;
 }
 
+/* The value word of a letter F..Z, plus one (0: not a word), in program
+ * memory: gcc's lookup table for a switch would be copied to RAM on an AVR. */
+static const uint8_t word_of[] PK_ROM = {
+    ['F' - 'F'] = 1 + PK_GC_W_F, ['I' - 'F'] = 1 + PK_GC_W_I, ['J' - 'F'] = 1 + PK_GC_W_J,
+    ['K' - 'F'] = 1 + PK_GC_W_K, ['L' - 'F'] = 1 + PK_GC_W_L, ['N' - 'F'] = 1 + PK_GC_W_N,
+    ['P' - 'F'] = 1 + PK_GC_W_P, ['Q' - 'F'] = 1 + PK_GC_W_Q, ['R' - 'F'] = 1 + PK_GC_W_R,
+    ['S' - 'F'] = 1 + PK_GC_W_S, ['T' - 'F'] = 1 + PK_GC_W_T, ['X' - 'F'] = 1 + PK_GC_W_X,
+    ['Y' - 'F'] = 1 + PK_GC_W_Y,
+#if PK_GC_AXES >= 3
+    ['Z' - 'F'] = 1 + PK_GC_W_Z,
+#endif
+};
+
 static int word_index(int letter)
 {
-    switch (letter) {
-    case 'F': return PK_GC_W_F;
-    case 'I': return PK_GC_W_I;
-    case 'J': return PK_GC_W_J;
-    case 'K': return PK_GC_W_K;
-    case 'L': return PK_GC_W_L;
-    case 'N': return PK_GC_W_N;
-    case 'P': return PK_GC_W_P;
-    case 'Q': return PK_GC_W_Q;
-    case 'R': return PK_GC_W_R;
-    case 'S': return PK_GC_W_S;
-    case 'T': return PK_GC_W_T;
-    case 'X': return PK_GC_W_X;
-    case 'Y': return PK_GC_W_Y;
-#if PK_GC_AXES >= 3
-    case 'Z': return PK_GC_W_Z;
-#endif
-    default: return -1;
-    }
+    unsigned k = (unsigned)(letter - 'F');
+    return k < sizeof word_of ? (int)pk_rom_u8(&word_of[k]) - 1 : -1;
 }
 
 /* Grbl's int_value (trunc) and mantissa (round(100 * fraction)) of a G/M
@@ -506,6 +502,7 @@ static uint32_t word_uint(const struct pk_gc_block *b, int w)
     return b->m[w] < 0 ? 0u : (uint32_t)b->m[w] / pk_rom_u32(&pow10_tab[b->dec[w]]);
 }
 
+#if PK_BUILD_G5
 /* G5 / G5.1 control points (plotkin; LinuxCNC's rules). */
 static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b, uint8_t motion,
                        uint8_t units, uint8_t plane, const int32_t start[2],
@@ -559,6 +556,7 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
     }
     return PK_GC_OK;
 }
+#endif
 
 /* Length of a straight move, µm (rounded up), for G93. */
 static uint32_t move_len(const int32_t a[PK_GC_AXES], const int32_t b[PK_GC_AXES])
@@ -572,6 +570,7 @@ static uint32_t move_len(const int32_t a[PK_GC_AXES], const int32_t b[PK_GC_AXES
     return (uint32_t)(r * r < s ? r + 1u : r);
 }
 
+#if PK_BUILD_ARCS || PK_BUILD_G5
 /* The chord tolerance of arcs and G5 (lead's rule): a quarter of the path
  * tolerance in G64, min($12, 2 µm) in G61. */
 static pk_um_t chord_tol(uint8_t path, pk_um_t tol_um, pk_um_t dflt)
@@ -582,6 +581,7 @@ static pk_um_t chord_tol(uint8_t path, pk_um_t tol_um, pk_um_t dflt)
     p /= 4;
     return p < 1 ? 1 : p;
 }
+#endif
 
 static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                   const struct pk_gc_env *env, int jog, struct pk_gc_state *n,
@@ -624,7 +624,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         feedmode = PK_GC_UNITS_PER_MIN;
     }
     uint16_t axis_words = words & PK_GC_AXIS_WORDS;
+#if PK_BUILD_ARCS || PK_BUILD_G5
     int rc;
+#endif
 
     /* [0] implicit motion command */
     if (axis_words && axis_cmd == PK_GC_AXCMD_NONE)
@@ -687,13 +689,15 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             return PK_GC_E_BAD_NUMBER;
         cmd->dwell_ms = (uint32_t)ms;
     }
-    /* [11. Set active plane] */
+    /* [11. Set active plane] (its axes serve the arcs only) */
+#if PK_BUILD_ARCS
     uint8_t ax0, ax1, axl;
     switch (plane) {
     case PK_GC_PLANE_ZX: ax0 = 2; ax1 = 0; axl = 1; break;
     case PK_GC_PLANE_YZ: ax0 = 1; ax1 = 2; axl = 0; break;
     default: ax0 = 0; ax1 = 1; axl = PK_GC_AXES >= 3 ? 2 : PK_GC_AXES; break;
     }
+#endif
     /* [12. Set length units] axis words to µm */
     int32_t xyz[PK_GC_AXES];
     for (int a = 0; a < PK_GC_AXES; a++) {
@@ -830,8 +834,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 break;
             case PK_GC_MOT_CW_ARC:
             case PK_GC_MOT_CCW_ARC: {
-                if (!PK_BUILD_ARCS)
-                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#if !PK_BUILD_ARCS
+                return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#else
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
                 if (!(axis_words & (PK_GC_WBIT(PK_GC_W_X + ax0) | PK_GC_WBIT(PK_GC_W_X + ax1))))
@@ -877,11 +882,13 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     if (!in_range(lo[a]) || !in_range(hi[a]))
                         return PK_GC_E_TRAVEL;
                 break;
+#endif
             }
             case PK_GC_MOT_CUBIC:
             case PK_GC_MOT_QUAD:
-                if (!PK_BUILD_G5)
-                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#if !PK_BUILD_G5
+                return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#else
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
             {
@@ -894,6 +901,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                             cmd->chord_tol_um);
                 break;
             }
+#endif
             default: /* probes */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
@@ -922,8 +930,12 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     pk_gc_umpm_t move_feed = f;
     if (feed_move && feedmode == PK_GC_INVERSE_TIME && !jog) {
         /* G93: the move takes 1/F minutes: feed = length * F */
-        uint32_t len = (PK_BUILD_ARCS && (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC))
+#if PK_BUILD_ARCS
+        uint32_t len = (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC)
                            ? pk_arc_length_um(&cmd->u.arc) : move_len(st->pos_um, target);
+#else
+        uint32_t len = move_len(st->pos_um, target);
+#endif
         if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
             return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */
         uint64_t v = ((uint64_t)len * (uint64_t)f + 999u) / 1000u;

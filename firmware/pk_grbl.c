@@ -432,7 +432,8 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
     p.chord_tol_um = c->chord_tol_um;
     memcpy(p.start, start, sizeof p.start);
     memcpy(p.end, end, sizeof p.end);
-    if (PK_BUILD_ARCS && kind == PK_GRBL_PRIM_ARC) {
+#if PK_BUILD_ARCS
+    if (kind == PK_GRBL_PRIM_ARC) {
         const struct pk_arc *a = &c->u.arc;
         p.centre_q8[0] = a->g.centre_q8[0];
         p.centre_q8[1] = a->g.centre_q8[1];
@@ -443,11 +444,15 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
         p.sweep = a->sweep;
         p.r0_q8 = a->r0_q8;
         p.r1_q8 = a->r1_q8;
-    } else if (PK_BUILD_G5 && (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD)) {
+    }
+#endif
+#if PK_BUILD_G5
+    if (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD) {
         for (int k = 0; k < 2; k++)
             for (int a = 0; a < 2; a++)
                 p.ctrl[k][a] = c->u.bez.p[1 + k][a];
     }
+#endif
     g->obs(g->obs_ctx, &p);
 }
 
@@ -520,18 +525,22 @@ static int do_curve(struct pk_grbl *g)
     int is_arc = c->motion == PK_GC_MOT_CW_ARC || c->motion == PK_GC_MOT_CCW_ARC;
     for (int budget = CHORDS_PER_POLL; budget > 0; budget--) {
         if (!g->pt_held) {
-            if (!(is_arc ? PK_BUILD_ARCS : PK_BUILD_G5)) {
-                return 1; /* not built: pk_gcode_interp refuses it */
-            } else if (is_arc) {
+            if (is_arc) {
+#if PK_BUILD_ARCS
                 if (!pk_arc_next(&c->u.arc, g->pt))
-                    return 1;
+#endif
+                    return 1; /* (not built: pk_gcode_interp refuses it) */
             } else {
+#if PK_BUILD_G5
                 pk_um_t xy[2];
                 if (!pk_bez_next(&c->u.bez, xy))
                     return 1;
                 memcpy(g->pt, c->target_um, sizeof g->pt);
                 g->pt[0] = xy[0];
                 g->pt[1] = xy[1];
+#else
+                return 1; /* not built: pk_gcode_interp refuses it */
+#endif
             }
             g->pt_held = 1;
         }
@@ -636,7 +645,11 @@ static int do_move(struct pk_grbl *g)
         if (g->step == 0) {
             uint8_t kind = c->motion == PK_GC_MOT_CUBIC ? PK_GRBL_PRIM_CUBIC
                            : c->motion == PK_GC_MOT_QUAD ? PK_GRBL_PRIM_QUAD
-                           : !PK_BUILD_ARCS || c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
+#if PK_BUILD_ARCS
+                           : c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
+#else
+                           : PK_GRBL_PRIM_LINE;
+#endif
             observe(g, kind, c->start_um, c->target_um);
             g->step = 1;
             g->pt_held = 0;
