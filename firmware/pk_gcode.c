@@ -496,6 +496,24 @@ static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
 
 #define TLO_AXIS 2
 
+/* A word's value in µm (length units), in thousandths, and a stored
+ * coordinate set: one call each where the block is read (smaller code on a
+ * small part than the field loads at every call). */
+static int word_um(const struct pk_gc_block *b, int w, uint8_t units, int32_t *out)
+{
+    return pk_gcode_len_um(b->m[w], b->dec[w], units, out);
+}
+
+static int word_milli(const struct pk_gc_block *b, int w, int32_t *out)
+{
+    return pk_gcode_scaled(b->m[w], b->dec[w], 3, out);
+}
+
+static int coord_get(const struct pk_gc_env *env, unsigned idx, int32_t out[PK_GC_AXES])
+{
+    return env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, idx, out) != 0 ? -1 : 0;
+}
+
 /* Truncated integer value of a word (Grbl's int_value). */
 static uint32_t word_uint(const struct pk_gc_block *b, int w)
 {
@@ -513,9 +531,9 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
     int32_t ij[2] = { 0, 0 };
     if (plane != PK_GC_PLANE_XY || has(b, PK_GC_W_Z))
         return PK_GC_E_BAD_TARGET; /* LinuxCNC: X and Y only, in G17 */
-    if (hi && pk_gcode_len_um(b->m[PK_GC_W_I], b->dec[PK_GC_W_I], units, &ij[0]) != PK_GC_OK)
+    if (hi && word_um(b, PK_GC_W_I, units, &ij[0]) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
-    if (hj && pk_gcode_len_um(b->m[PK_GC_W_J], b->dec[PK_GC_W_J], units, &ij[1]) != PK_GC_OK)
+    if (hj && word_um(b, PK_GC_W_J, units, &ij[1]) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
     *used |= PK_GC_WBIT(PK_GC_W_I) | PK_GC_WBIT(PK_GC_W_J);
     int64_t c[2][2];
@@ -533,8 +551,8 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
             ij[0] = -st->prev_pq_um[0];
             ij[1] = -st->prev_pq_um[1];
         }
-        if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &pq_out[0]) != PK_GC_OK ||
-            pk_gcode_len_um(b->m[PK_GC_W_Q], b->dec[PK_GC_W_Q], units, &pq_out[1]) != PK_GC_OK)
+        if (word_um(b, PK_GC_W_P, units, &pq_out[0]) != PK_GC_OK ||
+            word_um(b, PK_GC_W_Q, units, &pq_out[1]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
         *used |= PK_GC_WBIT(PK_GC_W_P) | PK_GC_WBIT(PK_GC_W_Q);
         for (int a = 0; a < 2; a++) {
@@ -613,7 +631,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         path_tol = 0;
         if (b->path == PK_GC_PATH_BLEND && has(b, PK_GC_W_P)) {
             int32_t t;
-            if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &t) != PK_GC_OK ||
+            if (word_um(b, PK_GC_W_P, units, &t) != PK_GC_OK ||
                 t > 10000)
                 return PK_GC_E_BAD_NUMBER; /* the smoother's range: 0..10 mm */
             path_tol = t;
@@ -644,18 +662,18 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     if (jog) {
         if (!has(b, PK_GC_W_F))
             return PK_GC_E_UNDEFINED_FEED;
-        if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+        if (word_um(b, PK_GC_W_F, units, &f) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     } else if (feedmode == PK_GC_INVERSE_TIME) {
         if (axis_cmd == PK_GC_AXCMD_MOTION && motion != PK_GC_MOT_NONE &&
             motion != PK_GC_MOT_RAPID && !has(b, PK_GC_W_F))
             return PK_GC_E_UNDEFINED_FEED;
         if (has(b, PK_GC_W_F) &&
-            pk_gcode_scaled(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], 3, &f) != PK_GC_OK)
+            word_milli(b, PK_GC_W_F, &f) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER; /* 1/min, in thousandths */
     } else {
         if (has(b, PK_GC_W_F)) {
-            if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+            if (word_um(b, PK_GC_W_F, units, &f) != PK_GC_OK)
                 return PK_GC_E_BAD_NUMBER;
         } else if (st->feedmode == PK_GC_UNITS_PER_MIN) {
             f = st->feed;
@@ -665,7 +683,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         return PK_GC_E_BAD_NUMBER;
     /* [4. Set spindle speed] */
     int32_t s = st->spindle_s;
-    if (has(b, PK_GC_W_S) && pk_gcode_scaled(b->m[PK_GC_W_S], b->dec[PK_GC_W_S], 3, &s) != PK_GC_OK)
+    if (has(b, PK_GC_W_S) && word_milli(b, PK_GC_W_S, &s) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
     /* [9. Override control] M56 P0 disables parking, M56 (P1) enables it */
     uint16_t used = 0;
@@ -684,7 +702,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             return PK_GC_E_VALUE_MISSING;
         used |= PK_GC_WBIT(PK_GC_W_P);
         int32_t ms;
-        if (pk_gcode_scaled(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], 3, &ms) != PK_GC_OK ||
+        if (word_milli(b, PK_GC_W_P, &ms) != PK_GC_OK ||
             (uint32_t)ms > PK_GC_DWELL_MAX_MS)
             return PK_GC_E_BAD_NUMBER;
         cmd->dwell_ms = (uint32_t)ms;
@@ -703,7 +721,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     for (int a = 0; a < PK_GC_AXES; a++) {
         xyz[a] = 0;
         if (has(b, PK_GC_W_X + a) &&
-            pk_gcode_len_um(b->m[PK_GC_W_X + a], b->dec[PK_GC_W_X + a], units, &xyz[a]) != PK_GC_OK)
+            word_um(b, PK_GC_W_X + a, units, &xyz[a]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     }
     /* [14. Cutter length compensation] G43.1: Z only */
@@ -718,7 +736,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     int32_t wcs_um[PK_GC_AXES];
     memcpy(wcs_um, st->wcs_um, sizeof wcs_um);
     if ((b->groups & PK_GC_GBIT(PK_GC_G_WCS)) && wcs != st->wcs) {
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, wcs, wcs_um) != 0)
+        if (coord_get(env, wcs, wcs_um) != 0)
             return PK_GC_E_READ_FAIL;
     }
     /* [19. Remaining non-modal actions] */
@@ -739,7 +757,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             return PK_GC_E_UNSUPPORTED;
         used |= PK_GC_WBIT(PK_GC_W_L) | PK_GC_WBIT(PK_GC_W_P);
         coord_idx = p > 0u ? (uint8_t)(p - 1u) : wcs;
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, coord_idx, coord) != 0)
+        if (coord_get(env, coord_idx, coord) != 0)
             return PK_GC_E_READ_FAIL;
         for (int a = 0; a < PK_GC_AXES; a++) {
             if (!has(b, PK_GC_W_X + a))
@@ -798,7 +816,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         }
         if (nonmodal == PK_GC_NM_HOME0 || nonmodal == PK_GC_NM_HOME1) {
             unsigned idx = nonmodal == PK_GC_NM_HOME0 ? PK_GC_COORD_G28 : PK_GC_COORD_G30;
-            if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, idx, coord) != 0)
+            if (coord_get(env, idx, coord) != 0)
                 return PK_GC_E_READ_FAIL;
             if (axis_words) {
                 for (int a = 0; a < PK_GC_AXES; a++)
@@ -854,7 +872,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     if (memcmp(st->pos_um, target, sizeof target) == 0)
                         return PK_GC_E_BAD_TARGET;
                     int32_t r;
-                    if (pk_gcode_len_um(b->m[PK_GC_W_R], b->dec[PK_GC_W_R], units, &r) != PK_GC_OK ||
+                    if (word_um(b, PK_GC_W_R, units, &r) != PK_GC_OK ||
                         r > (INT32_C(1) << 30) || r < -(INT32_C(1) << 30))
                         return PK_GC_E_BAD_TARGET;
                     rc = pk_arc_centre_r(&g, r);
@@ -866,7 +884,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     int32_t o[2] = { 0, 0 };
                     for (int k = 0; k < 2; k++) {
                         int w = PK_GC_W_I + (k == 0 ? ax0 : ax1);
-                        if (has(b, w) && pk_gcode_len_um(b->m[w], b->dec[w], units, &o[k]) != PK_GC_OK)
+                        if (has(b, w) && word_um(b, w, units, &o[k]) != PK_GC_OK)
                             return PK_GC_E_BAD_TARGET;
                     }
                     rc = pk_arc_centre_ijk(&g, o[0], o[1]);
@@ -966,7 +984,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     pk_um_t g54_um[PK_GC_AXES];
     if ((b->groups & PK_GC_GBIT(PK_GC_G_STOP)) && b->stop != PK_GC_STOP_OPTIONAL &&
         b->stop != PK_GC_STOP_PAUSE && wcs != 0) {
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, 0, g54_um) != 0)
+        if (coord_get(env, 0, g54_um) != 0)
             return PK_GC_E_READ_FAIL;
     }
 

@@ -20,6 +20,13 @@
  */
 #include "pk_grbl_internal.h"
 
+/* A counter of pk_grbl.stats (PK_GRBL_STATS; else nothing). */
+#if PK_GRBL_STATS
+#define STAT_INC(g, field) ((g)->stats.field++)
+#else
+#define STAT_INC(g, field) ((void)(g))
+#endif
+
 #include <string.h>
 
 /* line_flags */
@@ -66,7 +73,7 @@ static int gstate(const struct pk_grbl *g)
 static void answer(struct pk_grbl *g, int status)
 {
     if (!g->line_src) /* answers to the stream's lines only */
-        g->stats.lines++;
+        STAT_INC(g, lines);
     if (g->line_src) { /* a startup line: ">line:ok" */
         uint8_t buf[PK_GRBL_LINE_MAX];
         unsigned n = pk_grbl_nvm_line_read(g, g->line_src - 1u, buf);
@@ -76,11 +83,11 @@ static void answer(struct pk_grbl *g, int status)
     }
     if (status == 0) {
         if (!g->line_src)
-            g->stats.ok++;
+            STAT_INC(g, ok);
         PK_GRBL_PUTS(g, "ok\r\n");
     } else {
         if (!g->line_src)
-            g->stats.errors++;
+            STAT_INC(g, errors);
         PK_GRBL_PUTS(g, "error:");
         pk_grbl_put_u32(g, (uint32_t)status);
         PK_GRBL_PUTS(g, "\r\n");
@@ -411,9 +418,17 @@ static uint16_t laser_value(const struct pk_grbl *g, int laser_off)
     return spindle_q16(g, g->gc.spindle_s);
 }
 
+/* The primitive to the observer (PK_GRBL_OBSERVER; else nothing). */
 static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_AXES],
                     const pk_um_t end[PK_GC_AXES])
 {
+#if !PK_GRBL_OBSERVER
+    (void)g;
+    (void)kind;
+    (void)start;
+    (void)end;
+}
+#else
     if (!g->obs || g->check_mode)
         return;
     const struct pk_gc_cmd *c = &g->cmd;
@@ -455,6 +470,7 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
 #endif
     g->obs(g->obs_ctx, &p);
 }
+#endif
 
 /* ---- executing an accepted command --------------------------------------------- */
 
@@ -514,7 +530,7 @@ static int do_line(struct pk_grbl *g, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t 
         return ADV_SOFTLIMIT;
     int r = op_rc(rc);
     if (r == 1)
-        g->stats.moves++;
+        STAT_INC(g, moves);
     return r;
 }
 
@@ -1225,7 +1241,7 @@ static void soft_reset(struct pk_grbl *g)
     g->owed = 0;
     g->home_ok_due = 0;
     int cut = g->mo.reset(g->m);
-    g->stats.resets++;
+    STAT_INC(g, resets);
     g->len = 0;
     g->line_flags = 0;
     g->last_cr = 0;
@@ -1356,11 +1372,13 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
     return 0;
 }
 
+#if PK_GRBL_OBSERVER
 void pk_grbl_set_observer(struct pk_grbl *g, pk_grbl_observer_fn fn, void *ctx)
 {
     g->obs = fn;
     g->obs_ctx = ctx;
 }
+#endif
 
 int pk_grbl_idle(const struct pk_grbl *g)
 {
@@ -1527,7 +1545,7 @@ void pk_grbl_poll(struct pk_grbl *g)
         uint8_t b;
         int n = g->io.read(g->io.ctx, &b, 1);
         if (n < 0) {
-            g->stats.rx_lost++;
+            STAT_INC(g, rx_lost);
             g->line_flags |= LF_LOST;
             continue;
         }
