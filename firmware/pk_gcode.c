@@ -216,6 +216,11 @@ static int axis_command(struct pk_gc_block *b, uint8_t kind)
     return PK_GC_OK;
 }
 
+/* The G numbers Grbl's switch knows, bit n of byte n / 8 (G0-G5 G10 G17-G21
+ * G28 G30 G38 G40 G43 G49 G53-G59 G61 G64 G80 G90-G94), in program memory. */
+static const uint8_t g_codes[12] PK_ROM = { 0x3fu, 0x04u, 0x3eu, 0x50u, 0x40u, 0x09u,
+                                              0xe2u, 0x2fu, 0x01u, 0x00u, 0x01u, 0x7cu };
+
 /* Grbl keeps a G/M number in a uint8 (trunc) and the fraction times 100 in
  * a uint16: a negative or > 255 value wraps to another code with a non-zero
  * "mantissa". Its answer: error 23 where the wrapped code exists, else 20. */
@@ -225,15 +230,8 @@ static int code_wrapped(int32_t m, uint8_t dec, int is_g)
     uint32_t w = (uint32_t)t & 0xffu;
     if (!is_g)
         return PK_GC_E_NOT_INTEGER;
-    switch (w) {
-    case 0: case 1: case 2: case 3: case 4: case 5: case 10: case 17: case 18: case 19: case 20:
-    case 21: case 28: case 30: case 38: case 40: case 43: case 49: case 53: case 54: case 55:
-    case 56: case 57: case 58: case 59: case 61: case 64: case 80: case 90: case 91: case 92:
-    case 93: case 94:
-        return PK_GC_E_NOT_INTEGER;
-    default:
-        return PK_GC_E_UNSUPPORTED;
-    }
+    return w < 8u * sizeof g_codes && (pk_rom_u8(&g_codes[w >> 3]) >> (w & 7u)) & 1u
+               ? PK_GC_E_NOT_INTEGER : PK_GC_E_UNSUPPORTED;
 }
 
 /* A G word (Grbl's switch, plus G5/G5.1 and G64). */

@@ -332,20 +332,12 @@ static int soft_ok(const struct pk_grbl *g, const pk_um_t t[PK_GC_AXES])
  * $31..$30 onto the smallest..full output, 0 for S0 (Q0.16). */
 static uint16_t spindle_q16(const struct pk_grbl *g, int32_t s_milli)
 {
-    /* 32-bit only (it runs per move in laser mode): s_milli / 100 * 200 and
-     * the remainder term stay below 2^32 for every int32 S */
-    if (s_milli <= 0)
-        return 0;
-    uint32_t ovr = g->ovr_spindle;
-    uint32_t s = (uint32_t)s_milli / 100u * ovr + (uint32_t)s_milli % 100u * ovr / 100u;
+    uint32_t s;
+    int k = pk_grbl_spindle_span(g, s_milli, &s);
+    if (k != PK_GRBL_SPAN_INSIDE)
+        return k == PK_GRBL_SPAN_ZERO ? 0u : k == PK_GRBL_SPAN_MAX ? 65535u : 1u;
     uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX];
     uint32_t mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
-    if (s == 0)
-        return 0;
-    if (mn >= mx || s >= mx)
-        return 65535u;
-    if (s <= mn)
-        return 1u;
     /* 1 + floor(x * 65534 / d), x = s - mn < d = mx - mn < 2^31: the long
      * division gives q = floor(x * 2^16 / d) and its remainder; then
      * x * 65534 = q * d + rem - 2x takes off 0, 1 or 2 */

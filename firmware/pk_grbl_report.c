@@ -119,20 +119,34 @@ void pk_grbl_put_rate(struct pk_grbl *g, int32_t um_min)
         pk_grbl_put_fixed(g, div_round(um_min, 1000), 0, 0);
 }
 
+int pk_grbl_spindle_span(const struct pk_grbl *g, int32_t s_milli, uint32_t *s_out)
+{
+    /* 32-bit only (it runs per move in laser mode): s_milli / 100 * 200 and
+     * the remainder term stay below 2^32 for every int32 S */
+    if (s_milli <= 0)
+        return PK_GRBL_SPAN_ZERO;
+    uint32_t sm = (uint32_t)s_milli, ovr = g->ovr_spindle;
+    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u;
+    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    *s_out = s;
+    if (s == 0)
+        return PK_GRBL_SPAN_ZERO;
+    if (mn >= mx || s >= mx)
+        return PK_GRBL_SPAN_MAX;
+    return s <= mn ? PK_GRBL_SPAN_MIN : PK_GRBL_SPAN_INSIDE;
+}
+
 int32_t pk_grbl_spindle_rpm_milli(const struct pk_grbl *g)
 {
-    if (g->gc.spindle == PK_GC_SPINDLE_OFF || g->gc.spindle_s <= 0)
+    if (g->gc.spindle == PK_GC_SPINDLE_OFF)
         return 0;
-    uint32_t sm = (uint32_t)g->gc.spindle_s, ovr = g->ovr_spindle;
-    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u; /* < 2^32 for any int32 S */
-    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
-    if (s == 0)
-        return 0;
-    if (mn >= mx || s >= mx)
-        return (int32_t)mx;
-    if (s <= mn)
-        return (int32_t)mn;
-    return (int32_t)s;
+    uint32_t s = 0;
+    switch (pk_grbl_spindle_span(g, g->gc.spindle_s, &s)) {
+    case PK_GRBL_SPAN_ZERO: return 0;
+    case PK_GRBL_SPAN_MAX: return g->set.v[PK_GRBL_S_SPINDLE_MAX];
+    case PK_GRBL_SPAN_MIN: return g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    default: return (int32_t)s;
+    }
 }
 
 int pk_grbl_state(const struct pk_grbl *g)
