@@ -156,23 +156,22 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
     return PK_GC_OK;
 }
 
-/* The value word of a letter F..Z, plus one (0: not a word), in program
- * memory: gcc's lookup table for a switch would be copied to RAM on an AVR. */
-static const uint8_t word_of[] PK_ROM = {
-    ['F' - 'F'] = 1 + PK_GC_W_F, ['I' - 'F'] = 1 + PK_GC_W_I, ['J' - 'F'] = 1 + PK_GC_W_J,
-    ['K' - 'F'] = 1 + PK_GC_W_K, ['L' - 'F'] = 1 + PK_GC_W_L, ['N' - 'F'] = 1 + PK_GC_W_N,
-    ['P' - 'F'] = 1 + PK_GC_W_P, ['Q' - 'F'] = 1 + PK_GC_W_Q, ['R' - 'F'] = 1 + PK_GC_W_R,
-    ['S' - 'F'] = 1 + PK_GC_W_S, ['T' - 'F'] = 1 + PK_GC_W_T, ['X' - 'F'] = 1 + PK_GC_W_X,
-    ['Y' - 'F'] = 1 + PK_GC_W_Y,
-#if PK_GC_AXES >= 3
-    ['Z' - 'F'] = 1 + PK_GC_W_Z,
-#endif
-};
-
+/* The value word of a letter, -1 for none: range checks on the runs of the
+ * enum (a switch becomes a lookup table that avr-gcc copies to RAM, and a
+ * table in program memory costs ~5 cycles a word more on the AVR). */
+_Static_assert(PK_GC_W_F == 0 && PK_GC_W_J == PK_GC_W_I + 1 && PK_GC_W_L == PK_GC_W_I + 3 &&
+               PK_GC_W_T == PK_GC_W_P + 4 && PK_GC_W_Z == PK_GC_W_X + 2, "word runs I-L, P-T, X-Z");
 static int word_index(int letter)
 {
-    unsigned k = (unsigned)(letter - 'F');
-    return k < sizeof word_of ? (int)pk_rom_u8(&word_of[k]) - 1 : -1;
+    if (letter >= 'P' && letter <= 'T')
+        return PK_GC_W_P + (letter - 'P');
+    if (letter >= 'X' && letter <= (PK_GC_AXES >= 3 ? 'Z' : 'Y'))
+        return PK_GC_W_X + (letter - 'X');
+    if (letter >= 'I' && letter <= 'L')
+        return PK_GC_W_I + (letter - 'I');
+    if (letter == 'F')
+        return PK_GC_W_F;
+    return letter == 'N' ? PK_GC_W_N : -1;
 }
 
 /* Grbl's int_value (trunc) and mantissa (round(100 * fraction)) of a G/M
