@@ -44,6 +44,12 @@ for b in "${builds[@]}"; do
   if ! cc $CFLAGS $flags -o "$exe" tests/kernel_build_check.c $KSRC 2>"$out/$name.err"; then
     bad "$name builds ($(head -n 3 "$out/$name.err" | tr '\n' ' '))"; continue
   fi
+  # shellcheck disable=SC2086
+  if cc $CFLAGS $flags -DLAYOUT_FIXED_FIRST=1 -c -o "$out/layout-$name-a.o" tests/kernel_layout_check.c 2>"$out/$name.err" &&
+     cc $CFLAGS $flags -DLAYOUT_FIXED_FIRST=0 -o "$out/layout-$name" tests/kernel_layout_check.c "$out/layout-$name-a.o" 2>>"$out/$name.err"; then
+    lay=$("$out/layout-$name") && ok "$name: one layout of the kernel state in every unit ($lay)" \
+      || bad "$name: the kernel state's layout depends on the include order ($lay)"
+  else bad "$name: the layout check builds ($(head -n 3 "$out/$name.err" | tr '\n' ' '))"; fi
   "$exe" > "$out/$name.out"; rc=$?
   last=$(tail -n 1 "$out/$name.out"); info=$(grep '^#' "$out/$name.out")
   if [[ $rc -eq 0 ]]; then ok "$name: $last ${info#\# }"; else
