@@ -230,7 +230,53 @@ static int refill(struct pk_refine *r)
     return PK_OK;
 }
 
-int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
+#if !PK_BUILD_LIMIT
+/* The next point of the run, rounded into p[0 .. PK_AXES-1], and one step
+ * of the differences: V += ΔV, ΔV += Δ²V. Values are read once into locals
+ * (p may not alias the state, but the compiler cannot know: with the state
+ * read back after each store the AVR loop was a third longer). */
+static PK_INLINE void step_axis(pk_umf_t *s, unsigned f, pk_umf_t half, pk_um_t *p)
+{
+    pk_umf_t v = s[0], dv = s[PK_AXES];
+    s[0] = v + dv;
+    s[PK_AXES] = dv + s[2 * PK_AXES];
+    *p = pk_umf_round(v, f, half);
+}
+
+static PK_INLINE void step_point(struct pk_span *sp, unsigned f, pk_umf_t half, pk_um_t *p)
+{
+    step_axis(&sp->s[0][0], f, half, &p[0]);
+    step_axis(&sp->s[0][1], f, half, &p[1]);
+#if PK_AXES > 2
+    step_axis(&sp->s[0][2], f, half, &p[2]);
+#endif
+}
+#endif
+
+/* n >= 1 points of one axis of the current run (no limit stage) into q, q +
+ * dims, ...: V, ΔV, Δ²V stay in registers over the whole block (on AVR a
+ * point costs the adds, the rounding and one store, not the state's loads
+ * and stores and a call). The F = 8 copy rounds with a byte move. */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-tree-scev-cprop")))
+#endif
+static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims, unsigned f, pk_umf_t half)
+{
+    pk_umf_t v = s[0], dv = s[PK_AXES];
+    const pk_umf_t d2 = s[2 * PK_AXES];
+    do {
+        *q = pk_umf_round(v, f, half);
+        q += dims;
+        v += dv;
+        dv += d2;
+    } while (--n);
+    s[0] = v;
+    s[PK_AXES] = dv;
+}
+
+/* The general pull: a refill when the run is used up, any F, the limit
+ * stage. */
+static PK_NOINLINE int pull_any(struct pk_refine *r, struct pk_refine_out *out)
 {
     struct pk_span *sp = &r->e.sp;
     if (sp->rem == 0u) {
@@ -242,30 +288,89 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
         }
     }
     sp->rem--;
+#if PK_BUILD_LIMIT
     pk_umf_t(*s)[PK_AXES] = sp->s;
     const unsigned f = r->F;
-    const int lim = PK_BUILD_LIMIT && r->cfg.limit;
+    const int lim = r->cfg.limit;
     /* limit: an edge, its midpoint (2 L(j) + ΔV) / 2^(F+1), or (first and
      * last anchors, ph tells) the end point in s[0]; its tangent s[1] */
     const int endpoint = sp->ph == PH_FIRST || sp->ph == PH_DONE || sp->ph > PH_PASS;
-#if PK_BUILD_LIMIT
     int64_t d[PK_AXES];
-#endif
     for (unsigned a = 0; a < PK_AXES; a++) {
         out->t[a] = 0;
-#if PK_BUILD_LIMIT
         d[a] = s[1][a];
-#endif
         out->p[a] = lim ? (pk_um_t)pk_rshift_round64(2 * (int64_t)s[0][a] + (endpoint ? 0 : s[1][a]), f + 1u)
                         : pk_umf_round(s[0][a], f, r->half);
         s[0][a] += s[1][a];
         s[1][a] += s[2][a];
     }
-#if PK_BUILD_LIMIT
     if (r->cfg.tangents)
         pk_unit_q30(d, r->cfg.dims, out->t);
+#else
+    step_point(sp, r->F, r->half, out->p);
+    for (unsigned a = 0; a < PK_AXES; a++)
+        out->t[a] = 0;
 #endif
     return PK_OK;
+}
+
+int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
+{
+#if !PK_BUILD_LIMIT && PK_UMF_BITS == 32
+    /* The hot path of the smallest builds: inside a run, F = 8 (every depth
+     * <= 4 of a 32-bit build), so a byte move rounds; few registers, so
+     * little to save (on AVR the general path's prologue alone was a fifth
+     * of a point's cycles). */
+    struct pk_span *sp = &r->e.sp;
+    if (sp->rem != 0u && r->F == 8u) {
+        sp->rem--;
+        step_point(sp, 8u, 128, out->p);
+        for (unsigned a = 0; a < PK_AXES; a++)
+            out->t[a] = 0;
+        return PK_OK;
+    }
+#endif
+    return pull_any(r, out);
+}
+
+#if PK_UMF_BITS == 32
+/* (-Os would keep dv's start for a closed-form end value (a 32-bit
+ * multiply) and spill q to the stack inside the loop.) */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("O2", "no-tree-scev-cprop")))
+#endif
+static PK_NOINLINE void emit_axis8(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims)
+{
+    pk_umf_t v = s[0], dv = s[PK_AXES];
+    const pk_umf_t d2 = s[2 * PK_AXES];
+    do {
+        *q = pk_umf_round(v, 8u, 128);
+        q += dims;
+        v += dv;
+        dv += d2;
+    } while (--n);
+    s[0] = v;
+    s[PK_AXES] = dv;
+}
+#endif
+
+/* Up to n >= 1 points of the current run, axis by axis. Axes beyond dims
+ * hold zero and stay so. */
+static uint16_t emit_run(struct pk_refine *r, pk_um_t *p, uint16_t n)
+{
+    struct pk_span *sp = &r->e.sp;
+    const unsigned dims = r->cfg.dims;
+    for (unsigned a = 0; a < dims; a++) {
+#if PK_UMF_BITS == 32
+        if (r->F == 8u) {
+            emit_axis8(&sp->s[0][a], p + a, n, dims);
+            continue;
+        }
+#endif
+        emit_axis(&sp->s[0][a], p + a, n, dims, r->F, r->half);
+    }
+    sp->rem = (uint16_t)(sp->rem - n);
+    return n;
 }
 
 int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
@@ -274,12 +379,19 @@ int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t 
     uint32_t k = 0;
     int st = PK_OK;
     const unsigned dims = r->cfg.dims;
+    struct pk_span *sp = &r->e.sp;
     struct pk_refine_out o;
     while (k < max_points) {
         /* never past the end: PK_END resets, and must wait for the next call */
-        if (r->e.sp.rem == 0u && (st = refill(r)) != PK_OK)
+        if (sp->rem == 0u && (st = refill(r)) != PK_OK)
             break;
-        (void)pk_refine_pull(r, &o);
+        if (!(PK_BUILD_LIMIT && r->cfg.limit)) {
+            uint32_t left = max_points - k;
+            uint16_t n = left < sp->rem ? (uint16_t)left : sp->rem;
+            k += emit_run(r, p + (size_t)k * dims, n);
+            continue;
+        }
+        (void)pull_any(r, &o);
         for (unsigned a = 0; a < dims; a++) {
             p[(size_t)k * dims + a] = o.p[a];
             if (t != NULL && r->cfg.tangents)
