@@ -230,7 +230,7 @@ static int refill(struct pk_refine *r)
     return PK_OK;
 }
 
-#if !PK_BUILD_LIMIT
+#if !PK_BUILD_LIMIT && PK_UMF_BITS == 32 && PK_REFINE_FAST_PULL
 /* The next point of the run, rounded into p[0 .. PK_AXES-1], and one step
  * of the differences: V += ΔV, ΔV += Δ²V. Values are read once into locals
  * (p may not alias the state, but the compiler cannot know: with the state
@@ -276,7 +276,12 @@ static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned 
 
 /* The general pull: a refill when the run is used up, any F, the limit
  * stage. */
-static PK_NOINLINE int pull_any(struct pk_refine *r, struct pk_refine_out *out)
+#if PK_REFINE_FAST_PULL
+#define PULL_ANY_ATTR PK_NOINLINE
+#else
+#define PULL_ANY_ATTR
+#endif
+static PULL_ANY_ATTR int pull_any(struct pk_refine *r, struct pk_refine_out *out)
 {
     struct pk_span *sp = &r->e.sp;
     if (sp->rem == 0u) {
@@ -306,17 +311,24 @@ static PK_NOINLINE int pull_any(struct pk_refine *r, struct pk_refine_out *out)
     }
     if (r->cfg.tangents)
         pk_unit_q30(d, r->cfg.dims, out->t);
-#else
+#elif PK_UMF_BITS == 32 && PK_REFINE_FAST_PULL
     step_point(sp, r->F, r->half, out->p);
     for (unsigned a = 0; a < PK_AXES; a++)
         out->t[a] = 0;
+#else
+    for (unsigned a = 0; a < PK_AXES; a++) {
+        out->t[a] = 0;
+        out->p[a] = pk_umf_round(sp->s[0][a], r->F, r->half);
+        sp->s[0][a] += sp->s[1][a];
+        sp->s[1][a] += sp->s[2][a];
+    }
 #endif
     return PK_OK;
 }
 
 int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
 {
-#if !PK_BUILD_LIMIT && PK_UMF_BITS == 32
+#if !PK_BUILD_LIMIT && PK_UMF_BITS == 32 && PK_REFINE_FAST_PULL
     /* The hot path of the smallest builds: inside a run, F = 8 (every depth
      * <= 4 of a 32-bit build), so a byte move rounds; few registers, so
      * little to save (on AVR the general path's prologue alone was a fifth
