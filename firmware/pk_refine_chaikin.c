@@ -209,8 +209,19 @@ static int next_run(struct pk_refine *r)
     }
 }
 
-/* Take points until a run is ready. */
-static int refill(struct pk_refine *r)
+/* Take the point waiting in the slot into the ring (times 2^g). */
+static void take_in(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    pk_um_t *w = sp->w[r->taken & (PK_SPAN_WIN - 1u)];
+    for (unsigned a = 0; a < PK_AXES; a++)
+        w[a] = (pk_um_t)((uint32_t)r->in[a] << sp->g);
+    r->in_full = 0;
+    r->taken++;
+}
+
+/* Take points until a run is ready: every case. */
+static PK_NOINLINE int refill_any(struct pk_refine *r)
 {
     struct pk_span *sp = &r->e.sp;
     while (sp->rem == 0u) {
@@ -221,13 +232,33 @@ static int refill(struct pk_refine *r)
             return PK_END;
         if (!r->in_full)
             return PK_NEED_INPUT;
-        pk_um_t *w = sp->w[r->taken & (PK_SPAN_WIN - 1u)];
-        for (unsigned a = 0; a < PK_AXES; a++)
-            w[a] = (pk_um_t)((uint32_t)r->in[a] << sp->g);
-        r->in_full = 0;
-        r->taken++;
+        take_in(r);
     }
     return PK_OK;
+}
+
+/* Take points until a run is ready. */
+static int refill(struct pk_refine *r)
+{
+    struct pk_span *sp = &r->e.sp;
+    /* The hot case first: the next interior span while the stroke goes on
+     * (next_run's PH_SPANS without an end in sight: its 4 points ahead, the
+     * last of them perhaps still in the slot). */
+    if (sp->ph == PH_SPANS && !r->finishing) {
+        uint32_t s = sp->blk + 1u;
+        if (r->taken - s < 4u) {
+            if (!r->in_full)
+                return PK_NEED_INPUT;
+            take_in(r);
+        }
+        if (r->taken - s >= 4u) {
+            set_top(r, s, 0, 0);
+            sp->blk = s;
+            sp->rem = (uint16_t)(1u << sp->K);
+            return PK_OK;
+        }
+    }
+    return refill_any(r);
 }
 
 #if !PK_BUILD_LIMIT && PK_UMF_BITS == 32 && PK_REFINE_FAST_PULL
