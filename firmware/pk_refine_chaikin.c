@@ -30,6 +30,16 @@ enum { PH_P0 = 0, PH_FIRST, PH_SPANS, PH_LAST, PH_PASS, PH_DONE = 7 };
 
 static pk_umf_t pow2(unsigned k) { return (pk_umf_t)1 << k; }
 
+/* x * 2^k for an exact x * 2^k (it fits pk_umf_t): a shift of the unsigned
+ * bits, so no multiply (a library call on AVR and Cortex-M0+ for 64 bits)
+ * and no left shift of a negative value. */
+#if PK_UMF_BITS == 64
+typedef uint64_t umf_bits_t;
+#else
+typedef uint32_t umf_bits_t;
+#endif
+static pk_umf_t shl(pk_umf_t x, unsigned k) { return (pk_umf_t)((umf_bits_t)x << k); }
+
 static const pk_um_t *pt(const struct pk_refine *r, uint32_t i)
 {
     return r->e.sp.w[i & (PK_SPAN_WIN - 1u)];
@@ -101,7 +111,7 @@ static void run_point(struct pk_refine *r, const pk_um_t *p)
 {
     struct pk_span *sp = &r->e.sp;
     for (unsigned a = 0; a < PK_AXES; a++) {
-        sp->s[0][a] = (pk_umf_t)p[a] * pow2(r->F - sp->g);
+        sp->s[0][a] = shl(p[a], r->F - sp->g);
         sp->s[1][a] = 0;
         sp->s[2][a] = 0;
     }
@@ -154,8 +164,9 @@ static int next_run(struct pk_refine *r)
         for (unsigned a = 0; a < PK_AXES; a++) {
             pk_umf_t q0 = pt(r, 0)[a], q1 = pt(r, 1)[a], q2 = pt(r, 2)[a];
             /* j = 1: V = n ((n-1) Q0 + Q1); Δ = 2(n-1)(Q1 - Q0) + (Q2 - Q1) [L = 1: 2(Q2 - Q1)] */
-            sp->s[0][a] = (((pk_umf_t)n - 1) * q0 + q1) * (pk_umf_t)n;
-            sp->s[1][a] = 2 * ((pk_umf_t)n - 1) * (q1 - q0) + (L == 1u ? 2 : 1) * (q2 - q1);
+            pk_umf_t d01 = q1 - q0, d12 = q2 - q1;
+            sp->s[0][a] = shl(shl(q0, sp->K) - q0 + q1, sp->K);
+            sp->s[1][a] = shl(d01, sp->K + 1u) - 2 * d01 + d12 + (L == 1u ? d12 : 0);
         }
         set_top(r, 0, 1, L == 1u);
         sp->blk = 0;
@@ -177,9 +188,8 @@ static int next_run(struct pk_refine *r)
         return 1;
     }
     case PH_LAST: { /* P(m-1); limit: with the last edge, from L(nL) (the state) to it */
-        pk_umf_t e = pow2(r->F - sp->g);
         for (unsigned a = 0; a < PK_AXES; a++) {
-            pk_umf_t p = (pk_umf_t)pt(r, T - 1u)[a] * e;
+            pk_umf_t p = shl(pt(r, T - 1u)[a], r->F - sp->g);
             sp->s[1][a] = lim ? p - sp->s[0][a] : 0;
             sp->s[0][a] = p;
             sp->s[2][a] = 0;
@@ -221,7 +231,12 @@ static void take_in(struct pk_refine *r)
 }
 
 /* Take points until a run is ready: every case. */
-static PK_NOINLINE int refill_any(struct pk_refine *r)
+#if PK_BUILD_LIMIT
+#define REFILL_ANY_ATTR
+#else
+#define REFILL_ANY_ATTR PK_NOINLINE
+#endif
+static REFILL_ANY_ATTR int refill_any(struct pk_refine *r)
 {
     struct pk_span *sp = &r->e.sp;
     while (sp->rem == 0u) {
@@ -243,8 +258,9 @@ static int refill(struct pk_refine *r)
     struct pk_span *sp = &r->e.sp;
     /* The hot case first: the next interior span while the stroke goes on
      * (next_run's PH_SPANS without an end in sight: its 4 points ahead, the
-     * last of them perhaps still in the slot). */
-    if (sp->ph == PH_SPANS && !r->finishing) {
+     * last of them perhaps still in the slot). Not in builds with the
+     * limit stage, which are built for flash first (Cortex-M0+, 2 KB). */
+    if (!PK_BUILD_LIMIT && sp->ph == PH_SPANS && !r->finishing) {
         uint32_t s = sp->blk + 1u;
         if (r->taken - s < 4u) {
             if (!r->in_full)
@@ -284,6 +300,7 @@ static PK_INLINE void step_point(struct pk_span *sp, unsigned f, pk_umf_t half, 
 }
 #endif
 
+#if !PK_BUILD_LIMIT
 /* n >= 1 points of one axis of the current run (no limit stage) into q, q +
  * dims, ...: V, ΔV, Δ²V stay in registers over the whole block (on AVR a
  * point costs the adds, the rounding and one store, not the state's loads
@@ -304,6 +321,8 @@ static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned 
     s[0] = v;
     s[PK_AXES] = dv;
 }
+
+#endif
 
 /* The general pull: a refill when the run is used up, any F, the limit
  * stage. */
@@ -376,7 +395,7 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
     return pull_any(r, out);
 }
 
-#if PK_UMF_BITS == 32
+#if !PK_BUILD_LIMIT && PK_UMF_BITS == 32 && defined(__AVR__)
 /* (-Os would keep dv's start for a closed-form end value (a 32-bit
  * multiply) and spill q to the stack inside the loop.) */
 #if defined(__GNUC__) && !defined(__clang__)
@@ -397,6 +416,7 @@ static PK_NOINLINE void emit_axis8(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned
 }
 #endif
 
+#if !PK_BUILD_LIMIT
 /* Up to n >= 1 points of the current run, axis by axis. Axes beyond dims
  * hold zero and stay so. */
 static uint16_t emit_run(struct pk_refine *r, pk_um_t *p, uint16_t n)
@@ -404,7 +424,7 @@ static uint16_t emit_run(struct pk_refine *r, pk_um_t *p, uint16_t n)
     struct pk_span *sp = &r->e.sp;
     const unsigned dims = r->cfg.dims;
     for (unsigned a = 0; a < dims; a++) {
-#if PK_UMF_BITS == 32
+#if PK_UMF_BITS == 32 && defined(__AVR__)
         if (r->F == 8u) {
             emit_axis8(&sp->s[0][a], p + a, n, dims);
             continue;
@@ -415,6 +435,7 @@ static uint16_t emit_run(struct pk_refine *r, pk_um_t *p, uint16_t n)
     sp->rem = (uint16_t)(sp->rem - n);
     return n;
 }
+#endif
 
 int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
                          uint32_t *got)
@@ -428,12 +449,14 @@ int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t 
         /* never past the end: PK_END resets, and must wait for the next call */
         if (sp->rem == 0u && (st = refill(r)) != PK_OK)
             break;
-        if (!(PK_BUILD_LIMIT && r->cfg.limit)) {
+#if !PK_BUILD_LIMIT
+        {
             uint32_t left = max_points - k;
             uint16_t n = left < sp->rem ? (uint16_t)left : sp->rem;
             k += emit_run(r, p + (size_t)k * dims, n);
             continue;
         }
+#endif
         (void)pull_any(r, &o);
         for (unsigned a = 0; a < dims; a++) {
             p[(size_t)k * dims + a] = o.p[a];
