@@ -25,6 +25,11 @@
 
 #if PK_CHAIKIN_ONLY
 
+/* The hot paths (the one-point pull's, the refill's next interior span):
+ * not in builds with the limit stage, which are built for flash first
+ * (Cortex-M0+, 2 KB), nor with PK_REFINE_FAST_PULL=0. */
+#define PK_REFINE_HOT (!PK_BUILD_LIMIT && PK_REFINE_FAST_PULL)
+
 /* Phases: which run comes next. */
 enum { PH_P0 = 0, PH_FIRST, PH_SPANS, PH_LAST, PH_PASS, PH_DONE = 7 };
 
@@ -231,10 +236,10 @@ static void take_in(struct pk_refine *r)
 }
 
 /* Take points until a run is ready: every case. */
-#if PK_BUILD_LIMIT
-#define REFILL_ANY_ATTR
-#else
+#if PK_REFINE_HOT
 #define REFILL_ANY_ATTR PK_NOINLINE
+#else
+#define REFILL_ANY_ATTR
 #endif
 static REFILL_ANY_ATTR int refill_any(struct pk_refine *r)
 {
@@ -258,9 +263,8 @@ static int refill(struct pk_refine *r)
     struct pk_span *sp = &r->e.sp;
     /* The hot case first: the next interior span while the stroke goes on
      * (next_run's PH_SPANS without an end in sight: its 4 points ahead, the
-     * last of them perhaps still in the slot). Not in builds with the
-     * limit stage, which are built for flash first (Cortex-M0+, 2 KB). */
-    if (!PK_BUILD_LIMIT && sp->ph == PH_SPANS && !r->finishing) {
+     * last of them perhaps still in the slot). */
+    if (PK_REFINE_HOT && sp->ph == PH_SPANS && !r->finishing) {
         uint32_t s = sp->blk + 1u;
         if (r->taken - s < 4u) {
             if (!r->in_full)
