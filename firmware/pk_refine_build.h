@@ -55,13 +55,13 @@
 #endif
 
 /** PK_REFINE_FAST_PULL (Chaikin-only builds without the limit stage): 1
- *  (default) gives pk_refine_pull a hot path of its own for points inside a
- *  run at F = 8 (depths <= 4 of 32-bit builds) and the refill one for the
- *  next interior span: about 90 cycles less per point on AVR (Chaikin d4,
- *  bench-avr), about 600 bytes more flash in the Uno image; 0 for flash
- *  first. */
+ *  gives pk_refine_pull a hot path of its own for points inside a run at
+ *  F = 8 (depths <= 4 of 32-bit builds) and the refill one for the next
+ *  interior span: about 90 cycles less per point on AVR (Chaikin d4,
+ *  bench-avr builds with it), for about 200 B more flash on Cortex-M0+ and
+ *  700 B on AVR (bench-sizes). 0 (default): flash first. */
 #ifndef PK_REFINE_FAST_PULL
-#define PK_REFINE_FAST_PULL 1
+#define PK_REFINE_FAST_PULL 0
 #endif
 
 /** Chaikin with clamped ends only: the kernel is pk_refine_chaikin.c alone

@@ -370,11 +370,14 @@ static PULL_ANY_ATTR int pull_any(struct pk_refine *r, struct pk_refine_out *out
     for (unsigned a = 0; a < PK_AXES; a++)
         out->t[a] = 0;
 #else
+    pk_umf_t(*s)[PK_AXES] = sp->s;
+    const unsigned f = r->F;
+    const pk_umf_t half = r->half;
     for (unsigned a = 0; a < PK_AXES; a++) {
         out->t[a] = 0;
-        out->p[a] = pk_umf_round(sp->s[0][a], r->F, r->half);
-        sp->s[0][a] += sp->s[1][a];
-        sp->s[1][a] += sp->s[2][a];
+        out->p[a] = pk_umf_round(s[0][a], f, half);
+        s[0][a] += s[1][a];
+        s[1][a] += s[2][a];
     }
 #endif
     return PK_OK;
