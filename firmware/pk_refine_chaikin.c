@@ -309,10 +309,8 @@ static PK_INLINE void step_point(struct pk_span *sp, unsigned f, pk_umf_t half, 
  * dims, ...: V, ΔV, Δ²V stay in registers over the whole block (on AVR a
  * point costs the adds, the rounding and one store, not the state's loads
  * and stores and a call). The F = 8 copy rounds with a byte move. */
-#if defined(__GNUC__) && !defined(__clang__)
-__attribute__((optimize("no-tree-scev-cprop")))
-#endif
-static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims, unsigned f, pk_umf_t half)
+static PK_INLINE void emit_axis_run(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims, unsigned f,
+                                     pk_umf_t half)
 {
     pk_umf_t v = s[0], dv = s[PK_AXES];
     const pk_umf_t d2 = s[2 * PK_AXES];
@@ -326,6 +324,13 @@ static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned 
     s[PK_AXES] = dv;
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-tree-scev-cprop")))
+#endif
+static PK_NOINLINE void emit_axis(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims, unsigned f, pk_umf_t half)
+{
+    emit_axis_run(s, q, n, dims, f, half);
+}
 #endif
 
 /* The general pull: a refill when the run is used up, any F, the limit
@@ -410,16 +415,7 @@ __attribute__((optimize("O2", "no-tree-scev-cprop")))
 #endif
 static PK_NOINLINE void emit_axis8(pk_umf_t *s, pk_um_t *q, uint16_t n, unsigned dims)
 {
-    pk_umf_t v = s[0], dv = s[PK_AXES];
-    const pk_umf_t d2 = s[2 * PK_AXES];
-    do {
-        *q = pk_umf_round(v, 8u, 128);
-        q += dims;
-        v += dv;
-        dv += d2;
-    } while (--n);
-    s[0] = v;
-    s[PK_AXES] = dv;
+    emit_axis_run(s, q, n, dims, 8u, 128);
 }
 #endif
 
