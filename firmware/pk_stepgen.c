@@ -32,10 +32,24 @@
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
 
+/* PK_SG_PREP_OUTLINE=1 (a flash-first board, the Uno): the chunk
+ * preparation's helpers stay out of line although this file is compiled for
+ * speed (its step path is): each is called from a few places per segment, so
+ * inlining them copies their 64-bit sequences into every caller for a few
+ * calls' worth of cycles. The results are the same either way. */
+#ifndef PK_SG_PREP_OUTLINE
+#define PK_SG_PREP_OUTLINE 0
+#endif
+#if PK_SG_PREP_OUTLINE && (defined(__GNUC__) || defined(__clang__))
+#define SG_PREP __attribute__((noinline))
+#else
+#define SG_PREP
+#endif
+
 /* ------------------------------------------------------------------ prep */
 
 /* Squares of speeds, (µm/s)^2 Q8. */
-static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
+static SG_PREP uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
 
 /* A segment's clock: the time (ticks Q16) to cover d (µm Q8) at the mean
  * speed vsum / 2 (µm/s Q4) is d num / vsum, num = tick_hz 2^13 (< 2^37,
@@ -46,7 +60,7 @@ static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
  * keeps kq below 2^32, so kq has at least 24 significant bits wherever
  * num / vsum >= 1 (speeds below 8 km/s). (d kq) >> ks is the time of d, and
  * every d here is within one segment: the product stays below 2^56. */
-static void clock_set(struct pk_stepgen *sg, uint32_t vsum)
+static SG_PREP void clock_set(struct pk_stepgen *sg, uint32_t vsum)
 {
     if (vsum == sg->ck_vsum)
         return;
@@ -62,7 +76,7 @@ static void clock_set(struct pk_stepgen *sg, uint32_t vsum)
     sg->ck_ks = ks;
 }
 
-static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
+static SG_PREP uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
 {
     uint64_t p = (uint64_t)d_q8 * sg->ck_kq;
     switch (sg->ck_ks) {
@@ -90,7 +104,7 @@ static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
  * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
  * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
  * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
-static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
+static SG_PREP uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
     uint32_t t = (uint32_t)(tau >> 16);
     if (T == 0 || t >= T || r_q15 == 0)
@@ -117,11 +131,11 @@ static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_
 }
 
 /* 2^30 / T, T whole ticks (>= 1). */
-static uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
+static SG_PREP uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
 
 /* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
  * so that the division is 32-bit. */
-static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
+static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 {
     while (vsum >= 65536u) {
         vsum >>= 1;
@@ -131,7 +145,7 @@ static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 }
 
 /* The block's cached speeds (isqrt only when the plan changed them). */
-static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
+static SG_PREP void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
 {
     if (b->v2_nom != sg->c_v2_nom) {
         sg->c_v2_nom = b->v2_nom;
@@ -175,7 +189,7 @@ uint32_t pk_sg_pending(const struct pk_stepgen *sg)
     return (uint8_t)(h - t);
 }
 
-static struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
+static SG_PREP struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
 {
     if (pk_sg_pending(sg) >= PK_SG_CHUNKS)
         return NULL;
@@ -229,7 +243,7 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
  * then the intervals c1 + A, c1 + 2A, ... (the ramp of one segment). Several
  * slots when n exceeds PK_SG_MAX_EVENTS or the first interval exceeds the
  * recurrence's range; each goes on where the last one stopped. */
-static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
+static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
                         uint32_t v_um_s)
 {
     while (n > 0) {
@@ -265,67 +279,80 @@ static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32
 
 /* Cut the next segment of the tail LINE block b. Returns false if none
  * (held, or the ring has no room for it). */
-static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
+/* A LINE block's first segment: the block's own slot (directions,
+ * spindle, Bresenham), then its segment length and speed steps. Returns false
+ * if the ring has no room for the slot. */
+static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
 {
-    if (!sg->blk_sent) {
-        /* the block's own slot first: directions, spindle, Bresenham */
-        struct pk_sg_chunk *c = ring_slot(sg);
-        if (c == NULL)
-            return false;
-        c->kind = PK_SGC_BLOCK;
-        c->arg = b->dir_mask;
-        c->spindle = b->spindle;
-        memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
-        memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
-        c->u.blk.period = b->period;
-        ring_commit(sg);
-        sg->blk_sent = true;
-        sg->v2_blk = sg->v2;
-        sg->off_plan = sg->hold;
-        /* event k lies at floor(k L / M): stepped incrementally below */
-        sg->ev_q = b->len_q8 / b->events;
-        sg->ev_r = b->len_q8 % b->events;
-        sg->ev_next = sg->ev_q;
-        sg->ev_rem = sg->ev_r;
-        /* The segment: 2 ms, or shorter so that at twice the nominal speed
-         * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
-         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
-         * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
-         * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
-         * products stay below 2^50). */
-        blk_speeds(sg, b);
-        uint32_t seg = sg->seg_max;
-        uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
-        uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
-        if (room < need) {
-            uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
-            seg = lim < 16u ? 16u : (uint32_t)lim;
-            /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
-             * segment a (µm/s^2) seg / tick_hz, Q4 */
-            sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
-            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
-        } else {
-            sg->g_q24 = sg->g_max_q24;
-            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
-        }
-        if (sg->dv_q4 == 0)
-            sg->dv_q4 = 1;
-        sg->seg_ticks = seg;
-        sg->invT_q30 = inv_q30(seg);
-        /* longer segments (x2, x4) where the event limit and the recurrence's
-         * range allow: see seg_level */
-        uint8_t lv = 0;
-        while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
-               && room >= need << (lv + 1u))
-            lv++;
-        sg->lvl_max = lv;
-    }
-    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
-     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
-     * at the highest override */
-    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+    /* the block's own slot first: directions, spindle, Bresenham */
+    struct pk_sg_chunk *c = ring_slot(sg);
+    if (c == NULL)
         return false;
+    c->kind = PK_SGC_BLOCK;
+    c->arg = b->dir_mask;
+    c->spindle = b->spindle;
+    memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
+    memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
+    c->u.blk.period = b->period;
+    ring_commit(sg);
+    sg->blk_sent = true;
+    sg->v2_blk = sg->v2;
+    sg->off_plan = sg->hold;
+    /* event k lies at floor(k L / M): stepped incrementally below */
+    sg->ev_q = b->len_q8 / b->events;
+    sg->ev_r = b->len_q8 % b->events;
+    sg->ev_next = sg->ev_q;
+    sg->ev_rem = sg->ev_r;
+    /* The segment: 2 ms, or shorter so that at twice the nominal speed
+     * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
+     * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
+     * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
+     * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
+     * products stay below 2^50). */
     blk_speeds(sg, b);
+    uint32_t seg = sg->seg_max;
+    uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
+    uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
+    if (room < need) {
+        uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
+        seg = lim < 16u ? 16u : (uint32_t)lim;
+        /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
+         * segment a (µm/s^2) seg / tick_hz, Q4 */
+        sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
+        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+    } else {
+        sg->g_q24 = sg->g_max_q24;
+        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
+    }
+    if (sg->dv_q4 == 0)
+        sg->dv_q4 = 1;
+    sg->seg_ticks = seg;
+    sg->invT_q30 = inv_q30(seg);
+    /* longer segments (x2, x4) where the event limit and the recurrence's
+     * range allow: see seg_level */
+    uint8_t lv = 0;
+    while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
+           && room >= need << (lv + 1u))
+        lv++;
+    sg->lvl_max = lv;
+    return true;
+}
+
+/* One segment of the tail LINE block, between its speed phase (seg_speeds)
+ * and its events (seg_events): separate functions so that each keeps a small
+ * stack frame (on an 8-bit core a frame beyond 64 bytes costs an address
+ * adjustment at every access). */
+struct sg_seg {
+    uint32_t s0, v0, v1, ds;
+    uint64_t v12;   /* v1^2 once known (0: not yet) */
+    uint8_t lv;     /* segment length level */
+    bool full;      /* a whole segment of seg_ticks (else a phase ends inside) */
+};
+
+/* The speed phase of the next segment: its level, end speed and length.
+ * Returns false when a hold has come to rest (held). */
+static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, struct sg_seg *sp)
+{
     const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4;
     const uint32_t two_a = 2u * (uint32_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8, < 2^31 */
     const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
@@ -418,6 +445,24 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         v12 = 0;
         full = false;
     }
+    sp->s0 = s0;
+    sp->v0 = v0;
+    sp->v1 = v1;
+    sp->ds = ds;
+    sp->v12 = v12;
+    sp->lv = lv;
+    sp->full = full;
+    return true;
+}
+
+/* The events of the segment sp, and the state it leaves. Returns false if
+ * the ring had no room (the caller checked it). */
+static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, const struct sg_seg *sp)
+{
+    const uint32_t s0 = sp->s0, v0 = sp->v0, v1 = sp->v1, ds = sp->ds;
+    const uint64_t v12 = sp->v12;
+    const uint8_t lv = sp->lv;
+    const bool full = sp->full;
     /* The segment's duration from its length (not the nominal seg_ticks: ds
      * is rounded down, and the time must be the time of the distance, or
      * the carry would put the rounding into the interval across the next
@@ -509,6 +554,24 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     if (sg->hold && v1 == 0)
         sg->held = true;
     return true;
+}
+
+/* Cut the next segment of the tail LINE block b. Returns false if none
+ * (held, or the ring has no room for it). */
+static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
+{
+    if (!sg->blk_sent && !blk_start(sg, b))
+        return false;
+    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
+     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
+     * at the highest override */
+    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+        return false;
+    blk_speeds(sg, b);
+    struct sg_seg sp;
+    if (!seg_speeds(sg, b, &sp))
+        return false;
+    return seg_events(sg, b, &sp);
 }
 
 bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
