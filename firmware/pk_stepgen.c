@@ -32,15 +32,12 @@
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
 
-/* PK_SG_PREP_OUTLINE=1 (a flash-first board, the Uno): the chunk
+/* PK_FLASH_FIRST=1 (pk_munits.h; the Uno): the chunk
  * preparation's helpers stay out of line although this file is compiled for
  * speed (its step path is): each is called from a few places per segment, so
  * inlining them copies their 64-bit sequences into every caller for a few
  * calls' worth of cycles. The results are the same either way. */
-#ifndef PK_SG_PREP_OUTLINE
-#define PK_SG_PREP_OUTLINE 0
-#endif
-#if PK_SG_PREP_OUTLINE && (defined(__GNUC__) || defined(__clang__))
+#if PK_FLASH_FIRST && (defined(__GNUC__) || defined(__clang__))
 #define SG_PREP __attribute__((noinline))
 #else
 #define SG_PREP
@@ -50,6 +47,35 @@
 
 /* Squares of speeds, (µm/s)^2 Q8. */
 static SG_PREP uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
+
+/* The speed^2 lines, one helper per 64-bit form (each called from several
+ * places: out of line on a flash-first board, where every 64-bit operation
+ * inlined costs tens of bytes): base + a b, and base - a b at least 0
+ * (base < 2^55, a b < 2^62: pk_munits.h). */
+static SG_PREP uint64_t mac64(uint64_t base, uint32_t a, uint32_t b)
+{
+    return base + (uint64_t)a * b;
+}
+
+static SG_PREP uint64_t msub64(uint64_t base, uint32_t a, uint32_t b)
+{
+    const uint64_t ab = (uint64_t)a * b;
+    return base > ab ? base - ab : 0u;
+}
+
+/* floor(num / den) (den > 0), at most lim. */
+static SG_PREP uint32_t div64_max(uint64_t num, uint64_t den, uint32_t lim)
+{
+    const uint64_t q = num / den;
+    return q > lim ? lim : (uint32_t)q;
+}
+
+/* a b / 2^24 rounded to nearest (a segment's length from its speed sum:
+ * below 2^32 since a segment spans at most 2^14 ticks at < 2^20 µm/s). */
+static SG_PREP uint32_t mul_q24_round(uint32_t a, uint32_t b)
+{
+    return (uint32_t)(((uint64_t)a * b + 0x800000u) >> 24);
+}
 
 /* A segment's clock: the time (ticks Q16) to cover d (µm Q8) at the mean
  * speed vsum / 2 (µm/s Q4) is d num / vsum, num = tick_hz 2^13 (< 2^37,
@@ -66,9 +92,9 @@ static SG_PREP void clock_set(struct pk_stepgen *sg, uint32_t vsum)
         return;
     sg->ck_vsum = vsum;
     /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19) */
-    const uint64_t f = sg->tick_num >> 13; /* tick_hz */
-    uint8_t ks = vsum > (f << 5) ? 24u : (uint64_t)vsum << 3 > f ? 16u
-                 : (uint64_t)vsum << 11 > f ? 8u : 0u;
+    /* (32-bit tests: f 2^5 < 2^29, and 2^k v > f <=> v > floor(f / 2^k)) */
+    const uint32_t f = sg->tick_hz;
+    uint8_t ks = vsum > (f << 5) ? 24u : vsum > (f >> 3) ? 16u : vsum > (f >> 11) ? 8u : 0u;
     uint64_t q = (sg->tick_num << ks) / vsum;
     if (q > UINT32_MAX)
         q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
@@ -104,11 +130,13 @@ static SG_PREP uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
  * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
  * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
  * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
-static SG_PREP uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
+static SG_PREP uint64_t at_time(uint64_t tau64, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
-    uint32_t t = (uint32_t)(tau >> 16);
-    if (T == 0 || t >= T || r_q15 == 0)
-        return tau;
+    if (T == 0 || (tau64 >> 16) >= T || r_q15 == 0)
+        return tau64;
+    /* from here tau < T 2^16 < 3 2^30 (T below): 32 bits, and so is the
+     * result (eps < 2^28) */
+    const uint32_t tau = (uint32_t)tau64, t = tau >> 16;
     if (r_q15 > 0xFFFFu)
         r_q15 = 0xFFFFu;
     uint32_t u_q16 = (t * invT_q30) >> 14;
@@ -126,8 +154,16 @@ static SG_PREP uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uin
     else
         eps += fix;
     if (accel)
-        return tau + eps;
+        return (uint64_t)(tau + eps);
     return tau > eps ? tau - eps : 0u;
+}
+
+/* The time of an event d (µm Q8) into the segment: at_time of its time at
+ * the mean speed. */
+static SG_PREP uint64_t ev_time(const struct pk_stepgen *sg, uint32_t d_q8, uint32_t T,
+                                uint32_t invT_q30, uint32_t r_q15, bool accel)
+{
+    return at_time(clock_time(sg, d_q8), T, invT_q30, r_q15, accel);
 }
 
 /* 2^30 / T, T whole ticks (>= 1). */
@@ -318,11 +354,13 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
         seg = lim < 16u ? 16u : (uint32_t)lim;
         /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
          * segment a (µm/s^2) seg / tick_hz, Q4 */
-        sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
-        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
+        /* (seg <= seg_max: both quotients are far below 2^32, so the
+         * saturating helpers give the plain quotients) */
+        sg->g_q24 = pk_muldiv_u32(8u * seg, (uint32_t)1 << 24, sg->tick_hz);
+        sg->dv_q4 = pk_muldiv_u32(b->accel, 16u * seg, sg->tick_hz);
     } else {
         sg->g_q24 = sg->g_max_q24;
-        sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
+        sg->dv_q4 = pk_mulshr_u32(b->accel, sg->kdv_q24, 24u);
     }
     if (sg->dv_q4 == 0)
         sg->dv_q4 = 1;
@@ -359,7 +397,7 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
     const uint64_t v02 = sg->v_sq, ve2 = sg->hold ? 0u : sg->ve_sq;
     /* the speed^2 the end of the block allows here: the line
      * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
-    const uint64_t line0 = ve2 + (uint64_t)two_a * (L - s0);
+    const uint64_t line0 = mac64(ve2, two_a, L - s0);
     /* the segment's length: the base one, doubled while the speed changes
      * by at most 1/2^PK_SG_RAMP_SHIFT of itself over it (the interval ramp
      * is a first-order model of the acceleration: its error grows as the
@@ -388,11 +426,10 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
             /* (rounded to nearest, here and below: rounding down would
              * bias every segment's acceleration up, rounding up would let a
              * long deceleration drift above its braking line) */
-            ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+            ds = mul_q24_round(v0 + v1, g_q24);
         } else {
             v1 = vt;
-            uint64_t d = (v02 - sq64(vt)) / (two_a ? two_a : 1u);
-            ds = d > L - s0 ? L - s0 : (uint32_t)d;
+            ds = div64_max(v02 - sq64(vt), two_a ? two_a : 1u, L - s0);
             full = false;
         }
     } else {
@@ -401,25 +438,20 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
         v1 = v0 + dv < sg->vn_q4 ? v0 + dv : sg->vn_q4;
         if (v1 == 0)
             v1 = dv; /* at rest with a zero nominal: cannot happen, but move */
-        ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+        ds = mul_q24_round(v0 + v1, g_q24);
         if (ds == 0)
             ds = 1;
         uint32_t se = s0 + ds < L ? s0 + ds : L;
         v12 = sq64(v1);
-        if (v12 + (uint64_t)two_a * (se - s0) > line0) {
+        if (mac64(v12, two_a, se - s0) > line0) {
             /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
-             * line: accelerate (or cruise) until there */
-            uint64_t d;
-            if (v1 > v0)
-                d = (line0 - v02) / (2u * (uint64_t)two_a);     /* the two lines meet */
-            else
-                d = (line0 - v02) / (two_a ? two_a : 1u);       /* cruise meets the line */
-            if (d > L - s0)
-                d = L - s0;
-            ds = (uint32_t)d;
+             * line: accelerate (or cruise) until there: the two lines
+             * meet, or cruise meets the line */
+            const uint64_t den = v1 > v0 ? 2u * (uint64_t)two_a : (two_a ? two_a : 1u);
+            ds = div64_max(line0 - v02, den, L - s0);
             if (ds == 0)
                 ds = 1;
-            v1 = v1 > v0 ? pk_isqrt64(v02 + (uint64_t)two_a * ds) : v0;
+            v1 = v1 > v0 ? pk_isqrt64(mac64(v02, two_a, ds)) : v0;
             if (v1 > sg->vn_q4)
                 v1 = sg->vn_q4;
             v12 = 0;
@@ -430,12 +462,7 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
         /* the block ends inside this segment: end exactly there, at the speed
          * the constant acceleration reaches there */
         ds = L - s0;
-        uint64_t e2 = v02;
-        const uint64_t ad = (uint64_t)two_a * ds;
-        if (v1 > v0)
-            e2 += ad;
-        else if (v1 < v0)
-            e2 = e2 > ad ? e2 - ad : 0;
+        const uint64_t e2 = v1 > v0 ? mac64(v02, two_a, ds) : v1 < v0 ? msub64(v02, two_a, ds) : v02;
         uint32_t vl = pk_isqrt64(e2);
         if (v1 > v0 && vl > v1)
             vl = v1;
@@ -489,7 +516,7 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
         }
     }
     const uint32_t e = sg->e + n;
-    uint32_t vrep = (uint32_t)(((uint64_t)v1 + 8u) >> 4);
+    uint32_t vrep = (v1 + 8u) >> 4;   /* v1 < 2^24 */
     uint64_t carry = sg->carry_q16 + seg_q16;
     if (n > 0) {
         /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
@@ -497,8 +524,8 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
         const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
         const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
         const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
-        uint64_t t_first = at_time(clock_time(sg, p_first - s0), T, invT, r_q15, v1 > v0);
-        uint64_t t_last = at_time(clock_time(sg, p_last - s0), T, invT, r_q15, v1 > v0);
+        uint64_t t_first = ev_time(sg, p_first - s0, T, invT, r_q15, v1 > v0);
+        uint64_t t_last = ev_time(sg, p_last - s0, T, invT, r_q15, v1 > v0);
         if (t_last > seg_q16)
             t_last = seg_q16;
         if (t_first > t_last)
@@ -601,8 +628,7 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
                                                   : PK_SGC_WAIT;
             c->arg = b->tool;
             c->spindle = b->spindle;
-            uint64_t w = (uint64_t)b->wait_ms * sg->tick_hz / 1000u; /* < 2^27 * 2^24 */
-            c->u.ticks = (uint32_t)(w > UINT32_MAX ? UINT32_MAX : w);
+            c->u.ticks = pk_muldiv_u32(b->wait_ms, sg->tick_hz, 1000u); /* saturated */
             ring_commit(sg);
             pk_mq_pop(q);
             max_blocks--;
