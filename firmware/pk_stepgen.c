@@ -329,7 +329,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     c->spindle = b->spindle;
     memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
     memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
-    c->u.blk.period = b->period;
+    c->u.blk.period = 256u * b->events;   /* the Bresenham period (M <= 2^21) */
     ring_commit(sg);
     sg->blk_sent = true;
     sg->v2_blk = sg->v2;
