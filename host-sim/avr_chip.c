@@ -28,6 +28,12 @@ const struct pk_avrchip_board pk_avrchip_boards[] = {
         .enable = { { 'D', 7 }, { 'F', 2 }, { 'K', 0 } }, .shared_enable = 0, .enable_invert = 7u,
         .servo = { 'B', 5 }, .servo_min_us = 1000u, .servo_max_us = 2000u,
         .step_vector = 32, .step_timsk = 0x71, .step_ocie = 1,
+        /* limits: X min D3 PE5, Y min D14 PJ1, Z min D18 PD3; probe: Z max D19 PD2 */
+        .input = { { 'E', 5 }, { 'J', 1 }, { 'D', 3 }, { 0, 0 }, { 'D', 2 } },
+        .input_invert = 0x17u,
+        /* PJ1 = PCINT10: group 1 (PCICR 0x68 bit PCIE1, PCIFR 0x3B, PCMSK1 0x6C), vector 10 */
+        .pcx = { .port = 'J', .shift = 1, .vector = 10, .pcie = 1, .pcif = 1,
+                 .pcicr = 0x68, .pcmsk = 0x6C, .pcifr = 0x3B },
     },
     { .name = NULL },
 };
@@ -79,6 +85,20 @@ int pk_avrchip_uart_send(struct pk_avrchip *c, uint8_t byte)
     return 0;
 }
 void pk_avrchip_emit_initial(struct pk_avrchip *c) { (void)c; }
+long pk_avrchip_eeprom(struct pk_avrchip *c, uint8_t *buf, size_t n, int set)
+{
+    (void)c;
+    (void)buf;
+    (void)n;
+    (void)set;
+    return -1;
+}
+void pk_avrchip_input_set(struct pk_avrchip *c, unsigned input, int active)
+{
+    (void)c;
+    (void)input;
+    (void)active;
+}
 unsigned pk_avrchip_stack_bytes(const struct pk_avrchip *c)
 {
     (void)c;
@@ -120,10 +140,12 @@ int pk_avrchip_peek(const struct pk_avrchip *c, uint16_t addr, void *out, size_t
 #else
 
 #include <stdarg.h>
+#include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
 #include "sim_avr.h"
 #include "sim_hex.h"
+#include "sim_interrupts.h"
 #include "sim_irq.h"
 
 int pk_avrchip_available(void) { return 1; }
@@ -257,6 +279,58 @@ static int tap(struct pk_avrchip *c, unsigned idx, struct pk_avrchip_pin pin, ui
     return 0;
 }
 
+/* Drive the input pins to the levels asked for (outside every interrupt:
+ * see pk_avrchip_input_set). */
+static void inputs_apply(struct pk_avrchip *c)
+{
+    avr_t *avr = AV(c);
+    const struct pk_avrchip_board *b = c->b;
+    uint32_t changed = c->in_want ^ c->in_have;
+    for (unsigned i = 0; i < PK_AVRCHIP_INPUTS; i++) {
+        struct pk_avrchip_pin pin = b->input[i];
+        if (pin.port == 0 || !(changed >> i & 1u))
+            continue;
+        uint32_t raw = ((c->in_want ^ b->input_invert) >> i) & 1u;
+        avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(pin.port), pin.bit), raw);
+        c->input_edges++;
+        if (pin.port == b->pcx.port && c->pcx_vec != NULL && (avr->data[b->pcx.pcicr] >> b->pcx.pcie & 1u) &&
+            (avr->data[b->pcx.pcmsk] >> (pin.bit + b->pcx.shift) & 1u))
+            avr_raise_interrupt(avr, (avr_int_vector_t *)c->pcx_vec);
+    }
+    c->in_have = c->in_want;
+    c->in_dirty = 0;
+}
+
+long pk_avrchip_eeprom(struct pk_avrchip *c, uint8_t *buf, size_t n, int set)
+{
+    avr_t *avr = AV(c);
+    size_t size = (size_t)avr->e2end + 1u;
+    if (n > size)
+        return -1;
+    if (n == 0)
+        return (long)size;
+    /* simavr 1.6's EEPROM_SET/GET refuse a range that reaches the last byte
+     * (">= size"), return -1 even when they succeed and SET prints to stdout;
+     * GET with no buffer hands out the EEPROM itself, which is used both ways. */
+    avr_eeprom_desc_t d = { .ee = NULL, .offset = 0, .size = 0 };
+    (void)avr_ioctl(avr, AVR_IOCTL_EEPROM_GET, &d);
+    if (d.ee == NULL)
+        return -1;
+    if (set)
+        memcpy(d.ee, buf, n);
+    else
+        memcpy(buf, d.ee, n);
+    return (long)size;
+}
+
+void pk_avrchip_input_set(struct pk_avrchip *c, unsigned input, int active)
+{
+    if (input >= PK_AVRCHIP_INPUTS || c->b->input[input].port == 0)
+        return;
+    c->in_want = active ? c->in_want | 1u << input : c->in_want & ~(1u << input);
+    c->in_dirty = c->in_want != c->in_have;
+}
+
 int pk_avrchip_open(struct pk_avrchip *c, const struct pk_avrchip_board *b, const char *hex_path,
                     char *err, size_t errlen)
 {
@@ -313,6 +387,24 @@ int pk_avrchip_open(struct pk_avrchip *c, const struct pk_avrchip_board *b, cons
         pk_avrchip_close(c);
         return -1;
     }
+    if (b->pcx.port != 0) {
+        avr_int_vector_t *v = calloc(1, sizeof *v);
+        if (v == NULL) {
+            snprintf(err, errlen, "out of memory");
+            pk_avrchip_close(c);
+            return -1;
+        }
+        v->enable = (avr_regbit_t)AVR_IO_REGBIT(b->pcx.pcicr, b->pcx.pcie);
+        v->raised = (avr_regbit_t)AVR_IO_REGBIT(b->pcx.pcifr, b->pcx.pcif);
+        v->vector = b->pcx.vector;
+        avr_register_vector(avr, v);
+        c->pcx_vec = v;
+    }
+    /* every wired input starts released: its pull-up level */
+    c->in_have = ~0u;
+    c->in_want = 0u;
+    inputs_apply(c);
+    c->input_edges = 0;
     c->sp_min = 0xFFFFu;
     c->state = cpu_Running;
     return 0;
@@ -323,6 +415,8 @@ void pk_avrchip_close(struct pk_avrchip *c)
     if (c->avr != NULL)
         avr_terminate(AV(c));
     c->avr = NULL;
+    free(c->pcx_vec);
+    c->pcx_vec = NULL;
     free(c->out);
     c->out = NULL;
     c->n_out = c->cap_out = 0;
@@ -423,6 +517,8 @@ int pk_avrchip_run_until(struct pk_avrchip *c, uint64_t until)
         if (c->state != cpu_Running && c->state != cpu_Sleeping && c->state != cpu_Step &&
             c->state != cpu_StepDone)
             return -1;
+        if (c->in_dirty && c->n_frames == 0)
+            inputs_apply(c);
         step(c);
     }
     return (c->state == cpu_Done || c->state == cpu_Crashed) ? -1 : 0;

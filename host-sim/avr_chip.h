@@ -47,6 +47,9 @@
 #define PK_AVRCHIP_MAX_FN 12
 #define PK_AVRCHIP_VECTORS 64
 
+/** Input lines of a board, indexed as enum pk_hal_input (hal.h). */
+#define PK_AVRCHIP_INPUTS 9
+
 /** One pin: port letter and bit. port 0 = not wired. */
 struct pk_avrchip_pin {
     char port;
@@ -72,6 +75,20 @@ struct pk_avrchip_board {
     uint8_t step_vector;              /**< vector number of the step timer's compare ISR */
     uint16_t step_timsk;              /**< data address of its interrupt mask register */
     uint8_t step_ocie;                /**< its compare interrupt enable bit */
+    /** Input pins (limit switches, probe, ...: enum pk_hal_input order), as
+     *  board.h wires them for PK_BOARD_INPUTS; all on pull-ups. */
+    struct pk_avrchip_pin input[PK_AVRCHIP_INPUTS];
+    uint32_t input_invert;            /**< input bits whose line is active low */
+    /** A pin-change group simavr does not model (simavr 1.6's ATmega2560 has
+     *  pin change on port B only): the harness raises its interrupt itself,
+     *  as the datasheet describes, when a pin of `port` it drives changes
+     *  while the group is enabled (pcicr & pcie) and the pin is in the mask
+     *  (pcmsk bit pin + shift). port 0: none. Data addresses. */
+    struct pk_avrchip_pcx {
+        char port;
+        uint8_t shift, vector, pcie, pcif;
+        uint16_t pcicr, pcmsk, pcifr;
+    } pcx;
 };
 
 /** The boards known to the harness (NULL-terminated by name == NULL). */
@@ -149,6 +166,11 @@ struct pk_avrchip {
     uint64_t nest_acc[9];             /**< cycles of interrupts entered directly at each level */
     uint8_t timsk_last;
     int state;                        /**< simavr cpu state after the last step */
+    /* inputs: the logical levels asked for, and those on the pins */
+    uint32_t in_want, in_have;
+    int in_dirty;
+    void *pcx_vec;                    /**< avr_int_vector_t of b->pcx (opaque here) */
+    uint64_t input_edges;             /**< input pin changes applied */
 };
 
 /** 1 if this build has libsimavr, else 0. */
@@ -183,6 +205,23 @@ int pk_avrchip_uart_send(struct pk_avrchip *c, uint8_t byte);
 /** Emit the initial level of every wired pin as an initial edge (call once
  *  the sink is set, before running). */
 void pk_avrchip_emit_initial(struct pk_avrchip *c);
+
+/**
+ * Set input `input` (enum pk_hal_input) to logical level `active` (1 =
+ * switch closed / probe touching), as the board's wiring and polarity say.
+ * The pin changes at the next instruction boundary outside every interrupt
+ * handler (a real switch may change at any time; moving the edge by at most
+ * one handler's length keeps the harness simple and changes nothing a
+ * switch's bounce would not). Inputs the board does not wire are ignored.
+ */
+void pk_avrchip_input_set(struct pk_avrchip *c, unsigned input, int active);
+
+/**
+ * The chip's EEPROM: copy it out into buf (set = 0) or load buf into it
+ * (set = 1), n bytes from address 0. Returns the part's EEPROM size, or -1
+ * (n larger than the EEPROM, no simavr).
+ */
+long pk_avrchip_eeprom(struct pk_avrchip *c, uint8_t *buf, size_t n, int set);
 
 /** RAM the image's stack reached: RAMEND - lowest SP (bytes). */
 unsigned pk_avrchip_stack_bytes(const struct pk_avrchip *c);

@@ -7,6 +7,7 @@
  * and driver-timing checks (sim_trace.h), so the summary can be set beside
  * `plotkin sim`'s.
  */
+#include <ctype.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -19,13 +20,15 @@
 #include "avr_chip.h"
 #include "commands.h"
 #include "posix/pk_serial.h"
+#include "sim_inputs.h"
 #include "sim_trace.h"
 
 static const char avrsim_usage[] =
     "usage: plotkin avrsim FIRMWARE.hex [--board NAME] --run PROGRAM [--config FILE] [--json]\n"
     "                      [--trace OUT.csv] [--at SECONDS:EVENT]... [--timeout SECONDS]\n"
     "                      [--driver NAME] [--elf FILE [--profile]] [--watch N:ADDR]...\n"
-    "                      [--peek N:ADDR:BYTES]...\n"
+    "                      [--peek N:ADDR:BYTES]... [--input T:NAME=V]... [--switch NAME:AXIS:MM[:-]]...\n"
+    "                      [--eeprom FILE]\n"
     "       plotkin avrsim FIRMWARE.hex [--board NAME] --link PATH [--speed X]\n"
     "\n"
     "Runs the Intel HEX image of a board (what `make firmware` writes, what would be\n"
@@ -48,6 +51,14 @@ static const char avrsim_usage[] =
     "                   (--hist-main FILE: the main loop's cycles instead)\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
     "  --peek N:ADDR:B  report the B-byte little-endian value at ADDR at the end\n"
+    "  --input T:NAME=V at T seconds after the program starts, the board's input NAME\n"
+    "                   (limit-x limit-y limit-z probe ...) takes logical level V\n"
+    "  --switch NAME:AXIS:MM[:-]  input NAME is active while the decoded AXIS is at MM\n"
+    "                   or beyond (:- below), as `plotkin sim --switch`; mm with the\n"
+    "                   steps/mm of --config ($100-$102, default 80)\n"
+    "  --eeprom FILE    the chip's EEPROM (settings, offsets, startup lines) is read from\n"
+    "                   FILE before the chip starts (if it exists) and written back at the\n"
+    "                   end, as the EEPROM of a board survives a power cycle\n"
     "  --link PATH      make a pseudo-terminal, symlink PATH to it and connect it to the\n"
     "                   emulated serial port until SIGINT/SIGTERM; --speed X runs the\n"
     "                   emulation X times real time at most (default 1; 0 = as fast as it can)\n"
@@ -80,6 +91,9 @@ struct avrsim {
     char line[512];
     size_t line_n;
     unsigned greetings, oks, errors, alarms, msgs;
+    char msg_text[8][96];      /* the first 8 [..] lines */
+    char set_text[64][24];     /* the first 64 $N=V lines ($$) */
+    unsigned n_set;
     unsigned err_line[ERR_MAX], err_code[ERR_MAX];
     unsigned alarm_code;
     char status[256];          /* last status report */
@@ -88,7 +102,25 @@ struct avrsim {
     /* sender */
     unsigned answered;         /* ok/error lines since the stream started */
     double spmm[3];
+    /* inputs: scripted edges and switches along the decoded axes */
+    struct pk_sim_inputs in;
+    int64_t sw_pos[3];         /* decoded position, steps */
+    int resolved;
 };
+
+/* Switch levels from the decoded position (switches only: timed edges are
+ * applied by the program loop). */
+static void switches_update(struct avrsim *s)
+{
+    for (size_t i = 0; i < s->in.n; i++) {
+        const struct pk_sim_input *w = &s->in.in[i];
+        if (!w->is_switch || w->axis >= 3)
+            continue;
+        int64_t p = s->sw_pos[w->axis];
+        int on = w->side > 0 ? p >= w->at_steps : p <= w->at_steps;
+        pk_avrchip_input_set(&s->chip, w->input, on);
+    }
+}
 
 static void on_step(void *arg, const struct pk_step_event *ev)
 {
@@ -96,6 +128,11 @@ static void on_step(void *arg, const struct pk_step_event *ev)
     if (s->steps_total++ == 0)
         s->first_step = ev->t;
     s->last_step = ev->t;
+    if (ev->axis < 3) {
+        s->sw_pos[ev->axis] += ev->dir;
+        if (s->resolved)
+            switches_update(s);
+    }
 }
 
 static void on_edge(void *arg, const struct pk_trace_edge *e)
@@ -130,7 +167,12 @@ static void handle_line(struct avrsim *s, const char *l)
         snprintf(s->status, sizeof s->status, "%s", l);
         s->statuses++;
         s->status_seq++;
+    } else if (l[0] == '$' && isdigit((unsigned char)l[1])) {
+        if (s->n_set < 64)
+            snprintf(s->set_text[s->n_set++], sizeof s->set_text[0], "%s", l);
     } else if (l[0] == '[') {
+        if (s->msgs < 8)
+            snprintf(s->msg_text[s->msgs], sizeof s->msg_text[0], "%s", l);
         s->msgs++;
     }
 }
@@ -429,11 +471,25 @@ static void run_program(struct avrsim *s, struct prog_line *ln, size_t n, struct
     uint64_t hold_steps = 0;
     size_t *lens = calloc(n + 1, sizeof *lens);
     r->status = "finished";
+    /* the switches' positions in steps, with the steps/mm of --config */
+    pk_sim_inputs_resolve(&s->in, (uint32_t)f, s->spmm);
+    s->resolved = 1;
+    switches_update(s);
+    size_t next_in = 0;
     for (;;) {
         uint64_t now = pk_avrchip_cycles(&s->chip);
         if (now >= deadline) {
             r->status = "timeout";
             break;
+        }
+        /* scripted input edges (s->in.in[].tick: cycles after the start) */
+        for (; next_in < s->in.n; next_in++) {
+            const struct pk_sim_input *e = &s->in.in[next_in];
+            if (e->is_switch)
+                continue;
+            if (now < t0 + e->tick)
+                break;
+            pk_avrchip_input_set(&s->chip, e->input, e->active);
         }
         /* realtime events */
         while (next_at < n_at && now >= t0 + (uint64_t)(at[next_at].t_s * (double)f)) {
@@ -612,6 +668,25 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
     fprintf(o, "  \"hold_checks\": %u,\n  \"hold_exact\": %u,\n  \"hold_still\": %u,\n", r->hold_checks,
             r->hold_exact, r->hold_still);
     fprintf(o, "  \"greetings\": %u,\n", s->greetings);
+    fprintf(o, "  \"messages\": [");
+    for (unsigned i = 0; i < s->msgs && i < 8; i++) {
+        fputs(i ? ", \"" : "\"", o);
+        for (const char *q = s->msg_text[i]; *q; q++)
+            if (*q == '"' || *q == '\\')
+                fprintf(o, "\\%c", *q);
+            else if ((unsigned char)*q >= 0x20)
+                fputc(*q, o);
+        fputc('"', o);
+    }
+    fprintf(o, "],\n");
+    fprintf(o, "  \"settings\": {");
+    for (unsigned i = 0; i < s->n_set; i++) {
+        const char *eq = strchr(s->set_text[i], '=');
+        if (eq != NULL)
+            fprintf(o, "%s\"%.*s\": \"%s\"", i ? ", " : "", (int)(eq - s->set_text[i] - 1),
+                    s->set_text[i] + 1, eq + 1);
+    }
+    fprintf(o, "},\n");
     fprintf(o, "  \"timing_violations\": %zu,\n  \"violations\": [", d->n_viol);
     for (size_t i = 0; i < d->n_viol && i < 10; i++)
         fprintf(o, "%s{\"t_s\": %.6f, \"kind\": \"%s\", \"axis\": %u, \"got_ns\": %" PRIu64 ", \"limit_ns\": %u}",
@@ -803,6 +878,9 @@ int cmd_avrsim(int argc, char **argv)
     double timeout = 600.0, speed = 1.0;
     struct at_event at[AT_MAX];
     unsigned n_at = 0;
+    static struct pk_sim_inputs inputs;
+    const char *eeprom = NULL;
+    static uint8_t ee[4096];
     static char watch_name[4][32];
     int watch_addr[4];
     unsigned n_watch = 0;
@@ -854,6 +932,15 @@ int cmd_avrsim(int argc, char **argv)
             peek[n_peek].addr = (uint16_t)ad;
             peek[n_peek].len = (unsigned)ln;
             n_peek++, i++;
+        } else if (v != NULL && (!strcmp(a, "--input") || !strcmp(a, "--switch"))) {
+            char ierr[160];
+            if (pk_sim_inputs_add(&inputs, a, v, ierr, sizeof ierr) != 0) {
+                fprintf(stderr, "plotkin avrsim: %s\n", ierr);
+                return 2;
+            }
+            i++;
+        } else if (v != NULL && !strcmp(a, "--eeprom")) {
+            eeprom = v, i++;
         } else if (v != NULL && !strcmp(a, "--at")) {
             if (n_at == AT_MAX || parse_at(v, &at[n_at]) != 0) {
                 fprintf(stderr, "plotkin avrsim: bad --at '%s' (SECONDS:hold|resume|reset|status, at most %d)\n",
@@ -904,10 +991,35 @@ int cmd_avrsim(int argc, char **argv)
         return 2;
     }
     static struct avrsim s;
+    for (size_t k = 0; k < inputs.n; k++)
+        if (b->input[inputs.in[k].input].port == 0) {
+            fprintf(stderr, "plotkin avrsim: board %s has no input line for --input/--switch %zu\n",
+                    b->name, k + 1);
+            return 2;
+        }
     if (sim_open(&s, b, hex, &lim, csv) != 0) {
         if (csv)
             fclose(csv);
         return 1;
+    }
+    s.in = inputs;
+    long ee_size = pk_avrchip_eeprom(&s.chip, NULL, 0, 0);
+    if (eeprom != NULL) {
+        FILE *ef = fopen(eeprom, "rb");
+        if (ee_size <= 0 || ee_size > (long)sizeof ee) {
+            fprintf(stderr, "plotkin avrsim: --eeprom: the part's EEPROM is not readable\n");
+            pk_avrchip_close(&s.chip);
+            return 2;
+        }
+        if (ef != NULL) {
+            size_t got = fread(ee, 1, (size_t)ee_size, ef);
+            fclose(ef);
+            if (got != (size_t)ee_size || pk_avrchip_eeprom(&s.chip, ee, got, 1) < 0) {
+                fprintf(stderr, "plotkin avrsim: %s: want %ld bytes of EEPROM, read %zu\n", eeprom, ee_size, got);
+                pk_avrchip_close(&s.chip);
+                return 2;
+            }
+        }
     }
     for (unsigned i = 0; i < n_watch; i++)
         if (pk_avrchip_watch(&s.chip, watch_name[i], (uint16_t)watch_addr[i]) != 0) {
@@ -976,6 +1088,16 @@ int cmd_avrsim(int argc, char **argv)
                 fprintf(hf, "0x%zx %" PRIu64 "\n", 2u * w, s.chip.hist[w]);
         if (hf == NULL || fclose(hf) != 0)
             fprintf(stderr, "plotkin avrsim: cannot write %s\n", hist_out);
+    }
+    if (eeprom != NULL) {
+        FILE *ef = fopen(eeprom, "wb");
+        if (ef == NULL || pk_avrchip_eeprom(&s.chip, ee, (size_t)ee_size, 0) < 0 ||
+            fwrite(ee, 1, (size_t)ee_size, ef) != (size_t)ee_size) {
+            fprintf(stderr, "plotkin avrsim: cannot write the EEPROM to %s\n", eeprom);
+            rc = rc ? rc : 1;
+        }
+        if (ef != NULL && fclose(ef) != 0)
+            rc = rc ? rc : 1;
     }
     if (csv)
         fclose(csv);

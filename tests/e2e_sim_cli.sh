@@ -119,6 +119,18 @@ printf '$32=1\n' >"$tmp/laser.conf"
 $P sim "$tmp/laser.gcode" --config "$tmp/laser.conf" --svg "$tmp/l2.svg" >/dev/null 2>&1; rc=$?
 check "\$32=1 in --config is laser mode too" '[[ $rc -eq 0 ]] && cmp -s "$tmp/l.svg" "$tmp/l2.svg"'
 
+# issue 10's reduced cases at P = 0.02 mm: the deviation plotkin sim prints
+# (decoded pins against the programmed path) within P + half a step per axis
+# (80 steps/mm: 0.5 * sqrt(2) / 80 = 0.0088 mm); it printed 12.0 mm before
+printf 'G21 G90\nG0 X10 Y10\nM3\nG1 X110 Y10 F6000\nG1 X210 Y50\nM5\nM2\n' >"$tmp/c218.gcode"
+printf 'G21 G90\nG0 X10 Y10\nM3\nG1 X100 Y10 F6000\nG1 X110 Y20\nG1 X110 Y100\nM5\nM2\n' >"$tmp/cham.gcode"
+for c in c218 cham; do
+  $P sim "$tmp/$c.gcode" --tolerance 0.02 >"$tmp/$c.out" 2>&1; rc=$?
+  dev=$(sed -n 's/.*path deviation *max \([0-9.]*\) mm.*/\1/p' "$tmp/$c.out")
+  check "$c at --tolerance 0.02: plotkin sim prints a deviation ($dev mm) <= 0.02 + 0.0088 mm" \
+    '[[ $rc -eq 0 && -n $dev ]] && $PY -c "import sys; sys.exit(0 if float(\"$dev\") <= 0.0288 else 1)"'
+done
+
 printf 'G21\nG1 X10 F600\nG1 Y10 Q3\nM2\n' >"$tmp/err.gcode"
 $P sim "$tmp/err.gcode" >"$tmp/out" 2>&1; rc=$?
 check "a bad G-code line is reported with its number and error, exit 1" \

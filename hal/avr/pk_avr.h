@@ -50,6 +50,9 @@ struct pk_avr {
     uint8_t pulse_mask;           /**< its step lines (axis bits) ... */
     uint8_t pulse_idle;           /**< ... and their idle raw levels */
     volatile uint8_t pulse_on;    /**< compare B armed for pulse_end */
+    /* inputs (pk_avr_inputs.c, boards with PK_BOARD_INPUTS) */
+    pk_hal_input_cb in_cb;        /**< edge callback (input_watch, MAIN, ISR off) */
+    void *in_arg;
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
     /* servo */
@@ -87,6 +90,17 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
  *  PK_BOARD_SERVO_MIN_US .. PK_BOARD_SERVO_MAX_US. [ISR][MAIN] */
 void pk_avr_servo_init(struct pk_avr *a);
 int pk_avr_servo_write(void *ctx, uint16_t value_q16);
+
+/** Input lines (pk_avr_inputs.c; a board whose board.h defines
+ *  PK_BOARD_INPUTS): raw levels, bits of enum pk_hal_input. [ISR][MAIN] */
+int pk_avr_input_read(void *ctx, uint32_t *raw_levels);
+/** Edge reports from the board's pin-change / external interrupts. [MAIN] */
+int pk_avr_input_watch(void *ctx, pk_hal_input_cb cb, void *arg);
+
+/** EEPROM store (pk_avr_nvm.c): the whole EEPROM, blocking. [MAIN] */
+uint32_t pk_avr_nvm_size(void *ctx);
+int pk_avr_nvm_read(void *ctx, uint32_t offset, uint8_t *buf, size_t len);
+int pk_avr_nvm_write(void *ctx, uint32_t offset, const uint8_t *buf, size_t len);
 
 /** Serial line (pk_avr_uart.c). */
 void pk_avr_uart_init(struct pk_avr *a);

@@ -6,7 +6,8 @@
  * Polarity: the CNC shield and RAMPS drivers (A4988/DRV8825) step on a rising
  * edge, take direction as wired, and are enabled by a low ENABLE line; the
  * pen tool output is the servo (tool level 1 = pen down = the far end of the
- * servo range). The UART is not in the table: the controller (hal/pk_app.h)
+ * servo range). Inputs (pk_avr_inputs.c) where board.h defines PK_BOARD_INPUTS;
+ * the settings store is the EEPROM (pk_avr_nvm.c). The UART is not in the table: the controller (hal/pk_app.h)
  * reads and writes the rings of pk_uart.h directly.
  */
 #include "pk_avr.h"
@@ -74,6 +75,13 @@ static const struct pk_hal_ops avr_ops = {
     .clock_ticks = pk_avr_clock_ticks,
     .irq_save = avr_irq_save,
     .irq_restore = avr_irq_restore,
+#ifdef PK_BOARD_INPUTS
+    .input_read = pk_avr_input_read,
+    .input_watch = pk_avr_input_watch,
+#endif
+    .nvm_size = pk_avr_nvm_size,
+    .nvm_read = pk_avr_nvm_read,
+    .nvm_write = pk_avr_nvm_write,
 };
 
 void pk_avr_init(struct pk_avr *a)
@@ -85,6 +93,10 @@ void pk_avr_init(struct pk_avr *a)
     a->hal.dir_invert = 0u;
     a->hal.enable_invert = (1u << PK_BOARD_AXES_WIRED) - 1u;
     a->hal.tool_invert = 0u;
+#ifdef PK_BOARD_INPUTS
+    a->hal.inputs = PK_BOARD_INPUTS;
+    a->hal.input_invert = PK_BOARD_INPUT_INVERT;
+#endif
     pk_board_pins_init();
     pk_avr_timer_init(a);
     pk_avr_servo_init(a);

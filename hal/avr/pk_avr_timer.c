@@ -122,9 +122,15 @@ ISR(PK_BOARD_STEP_COMP_vect)
         }
         runs++;
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
+#ifdef PK_BOARD_INPUTS
+        uint8_t held = pk_board_input_irq_hold(); /* no input edge inside the step callback */
+#endif
         sei();
         uint32_t delay = a->cb(a->cb_arg, now);
         cli();
+#ifdef PK_BOARD_INPUTS
+        pk_board_input_irq_release(held);
+#endif
         if (delay == PK_HAL_TIMER_STOP) {
             a->armed = 0u;
             return;

@@ -19,6 +19,10 @@ knobs (BUILD/firmware/<board>/host/plotkin). Checked per run:
     does not move until resumed, and then ends exactly where the unheld run
     ends; soft reset in motion: ALARM:3, the greeting again, and the reported
     position equals the decoded one.
+On a board with input lines (INPUT_BOARDS): homing, a hard limit tripping
+mid-move and a probe cycle with switches along the decoded axes, against
+`plotkin sim` with the same switches; settings kept in the EEPROM across two
+runs of the chip (a power cycle).
 Every board's backend also runs alone (tests/avr/hal_selftest.c: step timer,
 pins, serial line, servo), so a board whose full image does not fit its part
 yet is still exercised on its chip.
@@ -190,6 +194,89 @@ def one_board(board, tmp):
               got['stopped_exact'] == 1 and got['timing_violations'] == 0 and
               any(got['final_steps']) and got['final_steps'] != want['final_steps'],
               (got['final_steps'], got['status_report']))
+    if board in INPUT_BOARDS:
+        inputs_and_store(board, tmp, hexf, host, cfg)
+
+
+# Boards whose image reads input lines (board.h PK_BOARD_INPUTS; the harness
+# drives the same pins: host-sim/avr_chip.c).
+INPUT_BOARDS = {'mega-ramps'}
+
+
+def inputs_and_store(board, tmp, hexf, host, cfg):
+    """Switches, probe and EEPROM on the chip: the images read the board's
+    input pins (edges through INTn / pin change) and keep their settings in
+    the EEPROM. The same switches go to `plotkin sim` (--switch), which must
+    agree step for step."""
+    def both(name, prog, conf_lines, switches, extra=()):
+        conf = write(tmp, 'conf', '\n'.join(cfg + conf_lines) + '\n')
+        gc = write(tmp, 'prog.gcode', prog)
+        sw = [x for w in switches for x in ('--switch', w)]
+        want, hp = run([host, 'sim', gc, '--config', conf, '--json'] + sw)
+        got, cp = run([PLOTKIN, 'avrsim', hexf, '--board', board, '--config', conf, '--run', gc, '--json',
+                       '--timeout', '120'] + sw + list(extra))
+        tag = '%s: %s' % (board, name)
+        if want is None or got is None:
+            check(tag + ': both simulators report', False, (hp.stderr[-300:], cp.stderr[-300:]))
+            return tag, None, None
+        axes = len(want['steps'])
+        check(tag + ': the same steps and final position as plotkin sim with the same switches',
+              got['steps'][:axes] == want['steps'] and got['final_steps'][:axes] == want['final_steps'],
+              (got['steps'], want['steps'], got['final_steps'], want['final_steps']))
+        return tag, got, want
+    travel = ['$130=300', '$131=300', '$132=50', '$27=1']
+    tag, got, want = both('homing ($H) on the RAMPS min end stops',
+                          '$H\nG0 X10 Y10\nG1 X20 Y12 F3000\n', travel + ['$22=1', '$23=7'],
+                          ['limit-x:x:-0.5:-', 'limit-y:y:-0.5:-', 'limit-z:z:-0.5:-'])
+    if got is not None:
+        check(tag + ': every line ok, no alarm, MPos Z = -$132 + $27 = -49 after homing (Grbl)',
+              got['status'] == 'finished' and got['ok'] == got['lines'] and got['alarms'] == 0 and
+              got['status_report'].startswith('<Idle|MPos:20.000,12.000,-49.000'),
+              {k: got[k] for k in ('status', 'ok', 'lines', 'alarms', 'status_report')})
+    # at 5,657 steps/s per axis: a switch seen only by the main loop's polling
+    # instead of its edge interrupt would stop steps late (the Y limit is
+    # PJ1, the pin-change group the harness raises itself)
+    for ax, other in (('x', 'Y'), ('y', 'X')):
+        tag, got, want = both('hard limit ($21=1) on %s trips mid-move at F6000' % ax.upper(),
+                              'G1 X100 Y100 F6000\n', ['$21=1', '$110=6000', '$111=6000'],
+                              ['limit-%s:%s:50' % (ax, ax)])
+        if got is None:
+            continue
+        i = 'xy'.index(ax)
+        check(tag + ': ALARM:1, the report says Pn:%s and the position the pins show' % ax.upper(),
+              got['alarm'] == 1 and want['alarm'] == 'hard limit' and got['final_state'] == 'Alarm' and
+              '|Pn:%s' % ax.upper() in got['status_report'] and got['stopped_exact'] == 1 and
+              got['final_steps'][i] == 4000,
+              {k: got[k] for k in ('alarm', 'final_state', 'status_report', 'stopped_exact', 'final_steps')})
+    tag, got, want = both('probe (G38.2) on the Z max end stop', 'G38.2 Z-10 F100\nG0 Z0\n', [],
+                          ['probe:z:-3:-'])
+    if got is not None:
+        check(tag + ': [PRB:0.000,0.000,-3.000:1] and back at Z0',
+              '[PRB:0.000,0.000,-3.000:1]' in got['messages'] and got['ok'] == got['lines'] and
+              got['status_report'].startswith('<Idle|MPos:0.000,0.000,0.000'),
+              (got['messages'], got['status_report']))
+    # the EEPROM survives a power cycle: two runs of the chip on one EEPROM file
+    ee = os.path.join(tmp, 'eeprom.bin')
+    if os.path.exists(ee):
+        os.remove(ee)
+    tag = '%s: settings in the EEPROM' % board
+    runs = []
+    for prog in ('$110=1234\n$27=2.5\nG10 L2 P1 X7\n', '$$\n$#\n'):
+        gc = write(tmp, 'prog.gcode', prog)
+        got, cp = run([PLOTKIN, 'avrsim', hexf, '--board', board, '--run', gc, '--json', '--eeprom', ee,
+                       '--timeout', '60'])
+        runs.append(got)
+        if got is None:
+            check(tag + ': avrsim reports', False, cp.stderr[-300:])
+            return
+    first, second = runs
+    check(tag + ': a blank EEPROM is restored to defaults, once',
+          '[MSG:Restoring defaults]' in first['messages'] and
+          '[MSG:Restoring defaults]' not in second['messages'], (first['messages'], second['messages']))
+    check(tag + ': $110, $27 and G54 set before the power cycle are there after it',
+          second['settings'].get('110') == '1234.000' and second['settings'].get('27') == '2.500' and
+          '[G54:7.000,0.000,0.000]' in second['messages'],
+          (second['settings'].get('110'), second['settings'].get('27'), second['messages']))
 
 
 def main():

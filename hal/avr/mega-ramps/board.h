@@ -16,9 +16,14 @@
  *                                exactly 50 Hz, 0.5 us resolution, pulse
  *                                PK_BOARD_SERVO_MIN_US (value 0, pen up) ..
  *                                PK_BOARD_SERVO_MAX_US
- *   X min/max   D3 D2     PE5 PE4  end stops: inputs with pull-ups, not read
- *   Y min/max   D14 D15   PJ1 PJ0  yet (no homing in this phase)
- *   Z min/max   D18 D19   PD3 PD2
+ *   X min/max   D3 D2     PE5 PE4  end stops, inputs with pull-ups, switches to
+ *   Y min/max   D14 D15   PJ1 PJ0  ground (active low). The MIN stops are the
+ *   Z min/max   D18 D19   PD3 PD2  limit switches (hard limits, homing); the
+ *                                  Z MAX stop (D19) is the probe input (G38.x)
+ *                                  as RAMPS users wire a touch plate; X/Y MAX
+ *                                  are pulled up and not read. Edges: X min
+ *                                  INT5, Z min INT3, probe INT2 (any change),
+ *                                  Y min PCINT10 (pin-change group 1).
  *   serial      D0 D1     PE0 PE1  USART0 (the USB serial), 115200 8N1, U2X
  *
  * Timers: Timer3 (16-bit, clk/8 = 2 MHz, free running) is the step timer:
@@ -31,6 +36,7 @@
 
 #include <stdint.h>
 #include <avr/io.h>
+#include "hal.h"
 
 #define PK_BOARD_NAME "mega-ramps"
 #define PK_BOARD_AXES_WIRED 3u
@@ -141,6 +147,61 @@ static inline void pk_board_enable_write(uint8_t mask, uint8_t levels)
         PORTF = (uint8_t)((levels & 2u) ? (PORTF | _BV(PF2)) : (PORTF & (uint8_t)~_BV(PF2)));
     if (mask & 4u)
         PORTK = (uint8_t)((levels & 4u) ? (PORTK | _BV(PK0)) : (PORTK & (uint8_t)~_BV(PK0)));
+}
+
+/* ---- inputs: RAMPS min end stops = limits, Z max = probe -------------------- */
+#define PK_BOARD_INPUTS ((1u << PK_IN_LIMIT_X) | (1u << PK_IN_LIMIT_Y) | (1u << PK_IN_LIMIT_Z) | \
+                         (1u << PK_IN_PROBE))
+#define PK_BOARD_INPUT_INVERT PK_BOARD_INPUTS /* pull-ups, switches to ground */
+#define PK_BOARD_INPUT_VECT0 INT5_vect   /* X min, PE5 */
+#define PK_BOARD_INPUT_VECT1 PCINT1_vect /* Y min, PJ1 = PCINT10 */
+#define PK_BOARD_INPUT_VECT2 INT3_vect   /* Z min, PD3 */
+#define PK_BOARD_INPUT_VECT3 INT2_vect   /* probe, PD2 */
+#define PK_BOARD_INPUT_EIMSK ((uint8_t)(_BV(INT5) | _BV(INT3) | _BV(INT2)))
+#define PK_BOARD_INPUT_PCIE ((uint8_t)_BV(PCIE1))
+
+/** [ISR][MAIN] Raw levels of the input lines, bits of enum pk_hal_input. */
+static inline uint32_t pk_board_input_read(void)
+{
+    uint8_t d = PIND, e = PINE, j = PINJ;
+    return ((e & _BV(PE5)) ? 1u << PK_IN_LIMIT_X : 0u) | ((j & _BV(PJ1)) ? 1u << PK_IN_LIMIT_Y : 0u) |
+           ((d & _BV(PD3)) ? 1u << PK_IN_LIMIT_Z : 0u) | ((d & _BV(PD2)) ? 1u << PK_IN_PROBE : 0u);
+}
+
+/** [MAIN, interrupts off] Edge interrupts on (any change) or off. */
+static inline void pk_board_input_edges(uint8_t on)
+{
+    EIMSK = (uint8_t)(EIMSK & (uint8_t)~PK_BOARD_INPUT_EIMSK);
+    PCICR = (uint8_t)(PCICR & (uint8_t)~PK_BOARD_INPUT_PCIE);
+    if (!on)
+        return;
+    /* ISCn1:ISCn0 = 01: any logical change */
+    EICRA = (uint8_t)((EICRA & (uint8_t)~(_BV(ISC31) | _BV(ISC30) | _BV(ISC21) | _BV(ISC20))) |
+                      _BV(ISC30) | _BV(ISC20));
+    EICRB = (uint8_t)((EICRB & (uint8_t)~(_BV(ISC51) | _BV(ISC50))) | _BV(ISC50));
+    PCMSK1 = (uint8_t)(PCMSK1 | _BV(PCINT10));
+    EIFR = PK_BOARD_INPUT_EIMSK; /* drop edges from before: the core reads the levels */
+    PCIFR = PK_BOARD_INPUT_PCIE;
+    EIMSK = (uint8_t)(EIMSK | PK_BOARD_INPUT_EIMSK);
+    PCICR = (uint8_t)(PCICR | PK_BOARD_INPUT_PCIE);
+}
+
+/** [ISR, interrupts off] Hold the edge interrupts off (their flags keep any
+ *  edge pending); returns what to give back to pk_board_input_irq_release. */
+static inline __attribute__((always_inline)) uint8_t pk_board_input_irq_hold(void)
+{
+    uint8_t e = (uint8_t)(EIMSK & PK_BOARD_INPUT_EIMSK), p = (uint8_t)(PCICR & PK_BOARD_INPUT_PCIE);
+    EIMSK = (uint8_t)(EIMSK & (uint8_t)~PK_BOARD_INPUT_EIMSK);
+    PCICR = (uint8_t)(PCICR & (uint8_t)~PK_BOARD_INPUT_PCIE);
+    return (uint8_t)(e | p);
+}
+_Static_assert((PK_BOARD_INPUT_EIMSK & PK_BOARD_INPUT_PCIE) == 0, "the held bits share one byte");
+
+/** [ISR, interrupts off] Give the enables back. */
+static inline __attribute__((always_inline)) void pk_board_input_irq_release(uint8_t held)
+{
+    EIMSK = (uint8_t)(EIMSK | (held & PK_BOARD_INPUT_EIMSK));
+    PCICR = (uint8_t)(PCICR | (held & PK_BOARD_INPUT_PCIE));
 }
 
 #endif

@@ -5,13 +5,17 @@ BOARD_ARCH  := avr
 BOARD_MCU   := atmega2560
 BOARD_F_CPU := 16000000UL
 BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
-               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo16.c hal/pk_app.c hal/pk_uart.c
+               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo16.c hal/avr/pk_avr_inputs.c \
+               hal/avr/pk_avr_nvm.c hal/pk_app.c hal/pk_uart.c
 # Three axes, every scheme the motion core uses but degree 7 (PK_WIN=4), depth
 # <= 6 and no limit stage (the kernel's exact level cascade keeps 64-bit values:
 # 8 levels of 5 would not leave the stack room in 8 KB), queues sized for 8 KB.
 # PK_SG_HW_PULSE=1: the AVR HAL ends step pulses itself (step_pulse), so the
 # step generator keeps its own pulse-ending path out of the step interrupt.
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4 \
+               -DPK_GRBL_INPUTS=1
+# PK_GRBL_INPUTS=1: limit switches (hard limits, \$H homing) and the probe
+# (G38.x) on the RAMPS end stops (board.h), edges on INTn / pin change.
 # ATmega2560 with the stock STK500v2 bootloader (8 KB): 262,144 - 8,192 B of
 # flash, 8,192 B of RAM.
 BOARD_FLASH_MAX := 253952

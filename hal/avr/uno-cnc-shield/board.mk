@@ -5,7 +5,7 @@ BOARD_ARCH  := avr
 BOARD_MCU   := atmega328p
 BOARD_F_CPU := 16000000UL
 BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c \
-               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/pk_app.c hal/pk_uart.c
+               hal/avr/pk_avr_uart.c hal/avr/pk_avr_servo8.c hal/avr/pk_avr_nvm.c hal/pk_app.c hal/pk_uart.c
 # Two axes + pen. Smoothing in the tolerance mode only (PK_STROKE_FIXED=0:
 # \$200=1 is refused), whose kernel is Chaikin with clamped ends on open
 # strokes at PK_STROKE_TOL_DEPTH = 3 levels: the kernel's Chaikin-only build
