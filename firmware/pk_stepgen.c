@@ -158,12 +158,21 @@ static SG_PREP uint64_t at_time(uint64_t tau64, uint32_t T, uint32_t invT_q30, u
     return tau > eps ? tau - eps : 0u;
 }
 
-/* The time of an event d (µm Q8) into the segment: at_time of its time at
- * the mean speed. */
-static SG_PREP uint64_t ev_time(const struct pk_stepgen *sg, uint32_t d_q8, uint32_t T,
-                                uint32_t invT_q30, uint32_t r_q15, bool accel)
+/* The times of the first and the last event of a segment (d_first, d_last
+ * µm Q8 into it): at_time of their times at the mean speed, within the
+ * segment's time seg_q16 and in order. */
+static SG_PREP void ev_span(const struct pk_stepgen *sg, uint32_t d_first, uint32_t d_last,
+                            uint64_t seg_q16, uint32_t T, uint32_t invT_q30, uint32_t r_q15,
+                            bool accel, uint64_t t[2])
 {
-    return at_time(clock_time(sg, d_q8), T, invT_q30, r_q15, accel);
+    uint64_t t_first = at_time(clock_time(sg, d_first), T, invT_q30, r_q15, accel);
+    uint64_t t_last = at_time(clock_time(sg, d_last), T, invT_q30, r_q15, accel);
+    if (t_last > seg_q16)
+        t_last = seg_q16;
+    if (t_first > t_last)
+        t_first = t_last;
+    t[0] = t_first;
+    t[1] = t_last;
 }
 
 /* 2^30 / T, T whole ticks (>= 1). */
@@ -524,12 +533,9 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
         const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
         const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
         const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
-        uint64_t t_first = ev_time(sg, p_first - s0, T, invT, r_q15, v1 > v0);
-        uint64_t t_last = ev_time(sg, p_last - s0, T, invT, r_q15, v1 > v0);
-        if (t_last > seg_q16)
-            t_last = seg_q16;
-        if (t_first > t_last)
-            t_first = t_last;
+        uint64_t tt[2];
+        ev_span(sg, p_first - s0, p_last - s0, seg_q16, T, invT, r_q15, v1 > v0, tt);
+        const uint64_t t_first = tt[0], t_last = tt[1];
         /* The n - 1 intervals after the first: their mean is span / (n - 1);
          * they ramp with the speed, the interval being inversely
          * proportional to it: from the mean, the change across the segment
