@@ -40,7 +40,10 @@ struct pk_block {
                                     queue's end (may rise when blocks are appended) */
     uint8_t curved;            /**< LINE: next to a curved junction (acceleration along
                                     the path shared with the turn) */
-    uint32_t events;           /**< LINE: Bresenham events M = max |steps| (>= 1) */
+    union {                    /* (a block is a line or a stop, never both) */
+        uint32_t events;       /**< LINE: Bresenham events M = max |steps| (>= 1) */
+        uint32_t wait_ms;      /**< PEN/DWELL/SPINDLE: wait */
+    };
     uint32_t inc[PK_AXES];     /**< LINE: per event each axis's accumulator grows by
                                     its exact displacement in 1/256 steps ... */
     int32_t acc0[PK_AXES];     /**< ... from this start value, which encodes the exact
@@ -55,7 +58,6 @@ struct pk_block {
     pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 from the junction geometry
                                     (the replan also caps it by both nominals) */
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
-    uint32_t wait_ms;          /**< PEN/DWELL/SPINDLE: wait */
 };
 
 /** The ring (MAIN only). */

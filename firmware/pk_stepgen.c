@@ -95,7 +95,7 @@ static SG_PREP void clock_set(struct pk_stepgen *sg, uint32_t vsum)
     /* (32-bit tests: f 2^5 < 2^29, and 2^k v > f <=> v > floor(f / 2^k)) */
     const uint32_t f = sg->tick_hz;
     uint8_t ks = vsum > (f << 5) ? 24u : vsum > (f >> 3) ? 16u : vsum > (f >> 11) ? 8u : 0u;
-    uint64_t q = (sg->tick_num << ks) / vsum;
+    uint64_t q = ((uint64_t)f << (13u + ks)) / vsum;
     if (q > UINT32_MAX)
         q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
     sg->ck_kq = (uint32_t)q;
@@ -216,7 +216,6 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
         sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
     if (sg->seg_max < 16u)
         sg->seg_max = 16u;
-    sg->tick_num = (uint64_t)tick_hz << 13;
     /* per block with full-length segments: ds = vsum g, dv = accel kdv */
     sg->g_max_q24 = (uint32_t)(((uint64_t)8u * sg->seg_max << 24) / tick_hz);
     sg->kdv_q24 = (uint32_t)(((uint64_t)sg->seg_max * 16u << 24) / tick_hz);
