@@ -355,11 +355,12 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
      * products stay below 2^50). */
     blk_speeds(sg, b);
     uint32_t seg = sg->seg_max;
-    uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
-    uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
-    if (room < need) {
-        uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
-        seg = lim < 16u ? 16u : (uint32_t)lim;
+    /* room >= seg' (2 vn + 1) <=> lim >= seg' for integers, lim = floor(room
+     * / (2 vn + 1)) (saturated: every seg' compared is below 2^17) */
+    const uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
+    const uint32_t lim = div64_max(room, 2u * sg->vn_q4 + 1u, UINT32_MAX); /* vn < 2^24 */
+    if (lim < seg) {
+        seg = lim < 16u ? 16u : lim;
         /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
          * segment a (µm/s^2) seg / tick_hz, Q4 */
         /* (seg <= seg_max: both quotients are far below 2^32, so the
@@ -378,7 +379,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
      * range allow: see seg_level */
     uint8_t lv = 0;
     while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
-           && room >= need << (lv + 1u))
+           && lim >= (sg->seg_max << (lv + 1u)))
         lv++;
     sg->lvl_max = lv;
     return true;
