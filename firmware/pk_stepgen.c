@@ -217,8 +217,10 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     if (sg->seg_max < 16u)
         sg->seg_max = 16u;
     /* per block with full-length segments: ds = vsum g, dv = accel kdv */
-    sg->g_max_q24 = (uint32_t)(((uint64_t)8u * sg->seg_max << 24) / tick_hz);
-    sg->kdv_q24 = (uint32_t)(((uint64_t)sg->seg_max * 16u << 24) / tick_hz);
+    /* (seg_max <= max(tick_hz / 500, 16): both quotients are below 2^32, so
+     * the saturating helper gives the plain quotient) */
+    sg->g_max_q24 = pk_muldiv_u32(8u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
+    sg->kdv_q24 = pk_muldiv_u32(16u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
