@@ -609,6 +609,27 @@ static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     return seg_events(sg, b, &sp);
 }
 
+/* The preparation at rest (after a stop block, or emptied). */
+static SG_PREP void prep_at_rest(struct pk_stepgen *sg)
+{
+    sg->v2 = 0;
+    sg->v_sq = 0;
+    sg->v_q4 = 0;
+    sg->carry_q16 = 0;
+}
+
+/* No block being cut, no hold, at rest. */
+static SG_PREP void prep_clear(struct pk_stepgen *sg)
+{
+    sg->prep_active = false;
+    sg->blk_sent = false;
+    sg->hold = false;
+    sg->held = false;
+    sg->e = 0;
+    sg->s_q8 = 0;
+    prep_at_rest(sg);
+}
+
 bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
 {
     bool added = false;
@@ -640,10 +661,7 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
             ring_commit(sg);
             pk_mq_pop(q);
             max_blocks--;
-            sg->v2 = 0;
-            sg->v_sq = 0;
-            sg->v_q4 = 0;
-            sg->carry_q16 = 0;
+            prep_at_rest(sg);
             added = true;
             continue;
         }
@@ -675,16 +693,7 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
     }
     pk_hal_irq_restore(hal, tok);
     if (pulse) {
-        sg->prep_active = false;
-        sg->blk_sent = false;
-        sg->hold = false;
-        sg->held = false;
-        sg->e = 0;
-        sg->s_q8 = 0;
-        sg->v2 = 0;
-        sg->v_sq = 0;
-        sg->v_q4 = 0;
-        sg->carry_q16 = 0;
+        prep_clear(sg);
         return 1;
     }
     if (hal->ops->timer_stop)
@@ -697,16 +706,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
 {
     sg->head = 0u;
     sg->tail = 0u;
-    sg->prep_active = false;
-    sg->blk_sent = false;
-    sg->hold = false;
-    sg->held = false;
-    sg->e = 0;
-    sg->s_q8 = 0;
-    sg->v2 = 0;
-    sg->v_sq = 0;
-    sg->v_q4 = 0;
-    sg->carry_q16 = 0;
+    prep_clear(sg);
     sg->phase = PK_SGP_GAP;
     sg->left = 0;
     sg->mask_due = 0;
