@@ -176,11 +176,9 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
 static void dyn_of(pk_um_s2_t a_min, pk_um_t delta_um, struct pk_planner_dyn *d)
 {
     d->a_min = a_min;
-    /* (shares of a_min and a_min * KINK_MS / 1000: below 2^32, so the
-     * saturating helpers give the plain results) */
-    d->a_side = pk_mulshr_u32(a_min, PK_PLANNER_SIDE_Q15, 15u);
-    pk_um_s2_t along = pk_mulshr_u32(a_min, PK_PLANNER_ALONG_Q15, 15u);
-    d->jump_um_s = pk_muldiv_u32(a_min - along, PK_PLANNER_KINK_MS, 1000u);
+    d->a_side = (pk_um_s2_t)(((uint64_t)a_min * PK_PLANNER_SIDE_Q15) >> 15);
+    pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)a_min * PK_PLANNER_ALONG_Q15) >> 15);
+    d->jump_um_s = (uint32_t)(((uint64_t)(a_min - along) * PK_PLANNER_KINK_MS) / 1000u);
     d->delta_um = delta_um;
 }
 
@@ -282,7 +280,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         const pk_um_s2_t a_turn = accel_min_moving(&p->lim, p->prev_u, u);
         dyn_of(a_turn, p->lim.junction_dev_um, &dyn);
         const pk_um_s2_t side = dyn.a_side;
-        const pk_um_s2_t along = pk_mulshr_u32(a_turn, PK_PLANNER_ALONG_Q15, 15u);
+        const pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)a_turn * PK_PLANNER_ALONG_Q15) >> 15);
         pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {
