@@ -29,7 +29,12 @@ trap cleanup EXIT
 start() {  # binary, link, trace
   "$1" --board "$BOARD" --no-realtime --mock-trace "$3" serve --link "$2" >"$tmp/out" 2>"$tmp/err" &
   srv=$!
-  for _ in $(seq 200); do [[ -e $2 ]] && break; sleep 0.05; done
+  # the symlink comes first, the banner once the loop is set up: wait for both
+  for _ in $(seq 200); do
+    [[ -e $2 ]] && grep -q "Grbl 1.1 on" "$tmp/out" 2>/dev/null && break
+    kill -0 "$srv" 2>/dev/null || break
+    sleep 0.05
+  done
 }
 stop() {   # -> rc
   kill -TERM "$srv"
