@@ -31,9 +31,10 @@ $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf
 
 # 3. The kernel as a 328P board should carry it: Chaikin with clamped ends
-#    only (pk_refine_chaikin.c), 2 axes, to depth 5 (32-bit values), no limit.
+#    only (pk_refine_chaikin.c), 2 axes, to depth 5 (32-bit values), no limit,
+#    with the one-point pull's hot paths (PK_REFINE_FAST_PULL=1).
 AVR_CHAIKIN_DEFS := -DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 \
-                    -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0
+                    -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 -DPK_REFINE_FAST_PULL=1
 $(eval $(call tgt_fw_rule,avr-chaikin,$(AVR_CC),$(TGT_FLAGS_avr) $(AVR_CHAIKIN_DEFS)))
 $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
 	@mkdir -p $(@D)
@@ -54,8 +55,9 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS) firmware-images $(BUILD)/pl
 	@printf '%-8s %-22s %12s %8s %12s\n' build measurement cycles points cyc/point
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf "2 axes"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf "3 axes" "$(AVR_PROFILE)"
-	@echo "the Chaikin-only kernel (pk_refine_chaikin.c: clamped ends, 2 axes, depth <= 5, no limit stage);"
-	@echo "issue 14's goal for chaikin d4: <= 300 cycles per output point"
+	@echo "the Chaikin-only kernel (pk_refine_chaikin.c: clamped ends, 2 axes, depth <= 5, no limit stage,"
+	@echo "PK_REFINE_FAST_PULL=1); \"block\": pk_refine_pull_block, 16 points a call; issue 14's goal for"
+	@echo "chaikin d4: <= 300 cycles per output point"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf "chaikin" | grep -v 'init failed' | grep .
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR kernel bench image (2 axes):"s" bytes"}'
 	@$(PYTHON3) bench/avr_bench.py $(BUILD) $(AVR_BOARDS)

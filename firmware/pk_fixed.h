@@ -20,7 +20,8 @@
  *                      rounding happens in this format: every level-K point
  *                      of the refinement is such a dyadic rational exactly.
  *                      32 bits in builds whose F never exceeds 10
- *                      (PK_UMF_BITS, set by pk_refine.h), so |N| < 2^31.
+ *                      (PK_UMF_BITS, set by pk_refine_build.h from the
+ *                      build knobs), so |N| < 2^31.
  *   pk_q30_t   int32   a unit-vector component in Q1.30 (1.0 = 2^30), used for
  *                      curve tangents and move directions.
  *
@@ -33,6 +34,8 @@
 
 #include <stdint.h>
 
+#include "pk_refine_build.h" /* PK_UMF_BITS: the build's one width of pk_umf_t */
+
 typedef int32_t pk_um_t;
 #define PK_UM_PER_MM 1000
 #define PK_UM_MAX ((pk_um_t)((1L << 21) - 1))
@@ -41,9 +44,6 @@ typedef int32_t pk_w8_t;
 #define PK_W8_SHIFT 8
 #define PK_W8_ONE_UM ((pk_w8_t)1 << PK_W8_SHIFT)
 
-#ifndef PK_UMF_BITS
-#define PK_UMF_BITS 64
-#endif
 #if PK_UMF_BITS == 64
 typedef int64_t pk_umf_t;
 #elif PK_UMF_BITS == 32

@@ -551,6 +551,14 @@ static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
     return pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
 }
 
+/* An ideal coordinate relative to the whole step ts, steps Q8:
+ * um_to_q8steps(um) - 256 ts, in 32 bits for a ts within 2^22 steps of it
+ * (plan_piece: the block's start, |n| <= PK_PLANNER_MAX_STEPS). */
+static int32_t q8steps_from(pk_um_t um, pk_spmm_q16_t spmm, pk_steps_t ts)
+{
+    return (int32_t)(um_to_q8steps(um, spmm) - 256 * (int64_t)ts);
+}
+
 /* The displacement of n steps in µm Q8: n * 1000 * 256 * 65536 / spmm,
  * rounded: the steps of a displacement within 2 PK_UM_MAX, so < 2^31. */
 static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
@@ -582,20 +590,29 @@ static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
  * is nudged within [256 n - 256 D - 128, 256 n - 256 D + 127] so that the
  * count is exactly the n steps the block owes (ties of the rounding).
  */
-static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_min_t feed)
+/* The whole steps st of p, the steps n from the planned position, and the
+ * largest |n|. */
+static uint32_t piece_steps(const struct pk_machine *m, const pk_um_t p[PK_AXES],
+                            pk_steps_t st[PK_AXES], pk_steps_t n[PK_AXES])
 {
-    const unsigned axes = m->cfg.axes;
-    pk_um_t p[PK_AXES];
-    memcpy(p, p_in, sizeof p);
-    pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
     uint32_t mx = 0;
-    for (unsigned i = 0; i < axes; i++) {
+    for (unsigned i = 0; i < m->cfg.axes; i++) {
         st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
         n[i] = st[i] - m->target_steps[i];
         uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
         if (an > mx)
             mx = an;
     }
+    return mx;
+}
+
+static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_min_t feed)
+{
+    const unsigned axes = m->cfg.axes;
+    pk_um_t p[PK_AXES];
+    memcpy(p, p_in, sizeof p);
+    pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
+    uint32_t mx = piece_steps(m, p, st, n);
     int done = 1;
     if (mx > PK_PLANNER_MAX_STEPS) {
         /* a piece along the way (the rest follows in later blocks) */
@@ -603,14 +620,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         for (unsigned i = 0; i < axes; i++)
             p[i] = m->target_um[i] + (p_in[i] - m->target_um[i]) / (int32_t)k; /* |.| < 2^23 */
         done = 0;
-        mx = 0;
-        for (unsigned i = 0; i < axes; i++) {
-            st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
-            n[i] = st[i] - m->target_steps[i];
-            uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
-            if (an > mx)
-                mx = an;
-        }
+        mx = piece_steps(m, p, st, n);
     }
     if (mx == 0) {
         memcpy(m->target_um, p, sizeof m->target_um);
@@ -632,7 +642,6 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         return -1;
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
     b->spindle = m->spindle_q16;
-    b->period = 256u * mx;
     for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0) {
             b->inc[i] = 0;
@@ -644,18 +653,20 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
          * 256 (|n| + 1) <= 2^30; f is clamped to [-384, 383] (d >= 256 (|n| - 1)),
          * so |(f - 128) * mx| <= 512 * 2^21: everything after qa, qb fits 32 bits */
         int32_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
-        int64_t qa = um_to_q8steps(m->target_um[i], m->cfg.steps_per_mm_q16[i]);
-        int64_t qb = um_to_q8steps(p[i], m->cfg.steps_per_mm_q16[i]);
-        int32_t f = (int32_t)(qa - 256 * (int64_t)m->target_steps[i]) * sgn;
-        int32_t d = (int32_t)(qb - qa) * sgn;
+        /* (relative to target_steps: qa - 256 ts = f, |f| <= 128, and qb - 256 ts
+         * = 256 n + (qb - 256 st), below 2^30 in magnitude: 32 bits) */
+        const int32_t fa = q8steps_from(m->target_um[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
+        const int32_t fb = q8steps_from(p[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
+        int32_t f = fa * sgn;
+        int32_t d = (fb - fa) * sgn;
         if (d < 0)
             d = 0;
         /* at most one step per event: an axis whose Q8 distance exceeds the
          * events (its ends rounded apart, e.g. -5.5 -> 269.5 steps for 274
          * whole ones) steps at every event; with inc > period its first
          * event could miss and the block would end a step short (M5) */
-        if (d > 256 * (int64_t)mx)
-            d = (int32_t)(256 * (int64_t)mx); /* < d <= 2^30 */
+        if (d > (int32_t)(256u * mx))
+            d = (int32_t)(256u * mx); /* < d <= 2^30 (mx <= PK_PLANNER_MAX_STEPS = 2^21) */
         int32_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
         f = f < lo ? lo : f > hi ? hi : f;
         b->inc[i] = (uint32_t)d;

@@ -197,10 +197,14 @@ struct pk_motion_cfg {
 struct pk_req {
     uint8_t type;              /**< PK_REQ_* (pk_motion.c) */
     uint8_t kind;              /**< move kind / pen level */
-    pk_um_t p[PK_AXES];        /**< move target, µm */
-    uint32_t arg;              /**< feed µm/min, dwell ms */
-    pk_um_t chord_err_um;      /**< feed move: chord error already spent (0: a programmed vertex) */
-    struct pk_smooth_cfg smooth;
+    union {                    /* (a smoothing request carries nothing else) */
+        struct {
+            pk_um_t p[PK_AXES];   /**< move target, µm */
+            uint32_t arg;         /**< feed µm/min, dwell ms */
+            pk_um_t chord_err_um; /**< feed move: chord error already spent (0: a programmed vertex) */
+        };
+        struct pk_smooth_cfg smooth; /**< PK_REQ_SMOOTH: the policy */
+    };
 };
 
 /**

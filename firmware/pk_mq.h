@@ -40,14 +40,16 @@ struct pk_block {
                                     queue's end (may rise when blocks are appended) */
     uint8_t curved;            /**< LINE: next to a curved junction (acceleration along
                                     the path shared with the turn) */
-    uint32_t events;           /**< LINE: Bresenham events M = max |steps| (>= 1) */
-    uint32_t period;           /**< LINE: Bresenham period, 256 * M */
+    union {                    /* (a block is a line or a stop, never both) */
+        uint32_t events;       /**< LINE: Bresenham events M = max |steps| (>= 1) */
+        uint32_t wait_ms;      /**< PEN/DWELL/SPINDLE: wait */
+    };
     uint32_t inc[PK_AXES];     /**< LINE: per event each axis's accumulator grows by
                                     its exact displacement in 1/256 steps ... */
     int32_t acc0[PK_AXES];     /**< ... from this start value, which encodes the exact
                                     fractional start position (pk_motion.c): the axis
                                     steps when its accumulator reaches 0, then drops
-                                    by `period` */
+                                    by the period, 256 M */
     uint32_t len_q8;           /**< LINE: path length of the steps, µm Q8 (< 2^31) */
     pk_um_s2_t accel;          /**< LINE: accel along the move, axis-limited, µm/s^2 */
     pk_um_min_t v_req;         /**< LINE: requested speed before override, µm/min (0: rapid) */
@@ -56,7 +58,6 @@ struct pk_block {
     pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 from the junction geometry
                                     (the replan also caps it by both nominals) */
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
-    uint32_t wait_ms;          /**< PEN/DWELL/SPINDLE: wait */
 };
 
 /** The ring (MAIN only). */

@@ -21,6 +21,14 @@
 #include <stdint.h>
 #include "pk_fixed.h"
 
+/* PK_FLASH_FIRST=1 (a board whose flash is the constraint, the Uno): the
+ * motion core's main-loop helpers stay out of line where inlining would copy
+ * their 64-bit sequences into every caller (on an 8-bit core each 64-bit
+ * operation costs tens of bytes of register moves). Same results. */
+#ifndef PK_FLASH_FIRST
+#define PK_FLASH_FIRST 0
+#endif
+
 typedef uint32_t pk_um_min_t;
 #define PK_UM_MIN_MAX 60000000u          /**< 60 m/min = 1 m/s */
 

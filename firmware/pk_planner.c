@@ -143,17 +143,24 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
     return (ad * q) >> 16;
 }
 
+/* |u2 - u1| in Q30, from the components' squares in Q56 (|d| <= 2^31:
+ * each square >> 4 < 2^58, the sum < 3 * 2^58). */
+static uint64_t turn_q30(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes)
+{
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];
+        ss += (uint64_t)(d * d) >> 4;
+    }
+    return (uint64_t)pk_isqrt64(ss) << 2;
+}
+
 pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                    uint8_t axes, uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a)
 {
     /* v^2 (Q4) = a * (l1 + l2)/2 / |du|: with l in µm Q8 and du in Q30,
      * v^2 = a * lsum_q8 / 512 * 2^30 / du  ->  Q4: a * lsum_q8 * 2^25 / du. */
-    uint64_t ss = 0;
-    for (unsigned i = 0; i < axes; i++) {
-        int64_t d = (int64_t)u2[i] - u1[i];   /* |d| <= 2^31 */
-        ss += (uint64_t)(d * d) >> 4;         /* Q56, < 3 * 2^58 */
-    }
-    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2; /* |u2 - u1|, Q30 */
+    uint64_t du = turn_q30(u1, u2, axes); /* |u2 - u1|, Q30 */
     if (du == 0)
         return UINT64_MAX;
     /* the kink is spread over the shorter neighbour (twice its half): with
@@ -202,12 +209,7 @@ static pk_um_s2_t accel_min_moving(const struct pk_planner_limits *lim, const pk
 pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                               uint8_t axes, uint32_t jump_um_s)
 {
-    uint64_t ss = 0;
-    for (unsigned i = 0; i < axes; i++) {
-        int64_t d = (int64_t)u2[i] - u1[i];
-        ss += (uint64_t)(d * d) >> 4;
-    }
-    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;   /* |u2 - u1|, Q30 */
+    uint64_t du = turn_q30(u1, u2, axes);   /* |u2 - u1|, Q30 */
     if (du == 0)
         return UINT64_MAX;
     uint64_t v_q2 = ((uint64_t)jump_um_s << 32) / du; /* jump / du, µm/s x 4 */

@@ -32,10 +32,50 @@
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
 
+/* PK_FLASH_FIRST=1 (pk_munits.h; the Uno): the chunk
+ * preparation's helpers stay out of line although this file is compiled for
+ * speed (its step path is): each is called from a few places per segment, so
+ * inlining them copies their 64-bit sequences into every caller for a few
+ * calls' worth of cycles. The results are the same either way. */
+#if PK_FLASH_FIRST && (defined(__GNUC__) || defined(__clang__))
+#define SG_PREP __attribute__((noinline))
+#else
+#define SG_PREP
+#endif
+
 /* ------------------------------------------------------------------ prep */
 
 /* Squares of speeds, (µm/s)^2 Q8. */
-static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
+static SG_PREP uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
+
+/* The speed^2 lines, one helper per 64-bit form (each called from several
+ * places: out of line on a flash-first board, where every 64-bit operation
+ * inlined costs tens of bytes): base + a b, and base - a b at least 0
+ * (base < 2^55, a b < 2^62: pk_munits.h). */
+static SG_PREP uint64_t mac64(uint64_t base, uint32_t a, uint32_t b)
+{
+    return base + (uint64_t)a * b;
+}
+
+static SG_PREP uint64_t msub64(uint64_t base, uint32_t a, uint32_t b)
+{
+    const uint64_t ab = (uint64_t)a * b;
+    return base > ab ? base - ab : 0u;
+}
+
+/* floor(num / den) (den > 0), at most lim. */
+static SG_PREP uint32_t div64_max(uint64_t num, uint64_t den, uint32_t lim)
+{
+    const uint64_t q = num / den;
+    return q > lim ? lim : (uint32_t)q;
+}
+
+/* a b / 2^24 rounded to nearest (a segment's length from its speed sum:
+ * below 2^32 since a segment spans at most 2^14 ticks at < 2^20 µm/s). */
+static SG_PREP uint32_t mul_q24_round(uint32_t a, uint32_t b)
+{
+    return (uint32_t)(((uint64_t)a * b + 0x800000u) >> 24);
+}
 
 /* A segment's clock: the time (ticks Q16) to cover d (µm Q8) at the mean
  * speed vsum / 2 (µm/s Q4) is d num / vsum, num = tick_hz 2^13 (< 2^37,
@@ -46,23 +86,23 @@ static uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
  * keeps kq below 2^32, so kq has at least 24 significant bits wherever
  * num / vsum >= 1 (speeds below 8 km/s). (d kq) >> ks is the time of d, and
  * every d here is within one segment: the product stays below 2^56. */
-static void clock_set(struct pk_stepgen *sg, uint32_t vsum)
+static SG_PREP void clock_set(struct pk_stepgen *sg, uint32_t vsum)
 {
     if (vsum == sg->ck_vsum)
         return;
     sg->ck_vsum = vsum;
     /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19) */
-    const uint64_t f = sg->tick_num >> 13; /* tick_hz */
-    uint8_t ks = vsum > (f << 5) ? 24u : (uint64_t)vsum << 3 > f ? 16u
-                 : (uint64_t)vsum << 11 > f ? 8u : 0u;
-    uint64_t q = (sg->tick_num << ks) / vsum;
+    /* (32-bit tests: f 2^5 < 2^29, and 2^k v > f <=> v > floor(f / 2^k)) */
+    const uint32_t f = sg->tick_hz;
+    uint8_t ks = vsum > (f << 5) ? 24u : vsum > (f >> 3) ? 16u : vsum > (f >> 11) ? 8u : 0u;
+    uint64_t q = ((uint64_t)f << (13u + ks)) / vsum;
     if (q > UINT32_MAX)
         q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
     sg->ck_kq = (uint32_t)q;
     sg->ck_ks = ks;
 }
 
-static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
+static SG_PREP uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
 {
     uint64_t p = (uint64_t)d_q8 * sg->ck_kq;
     switch (sg->ck_ks) {
@@ -90,11 +130,13 @@ static uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
  * u_q16 < 2^16; u (1 - u) <= 1/4: w_q16 <= 2^14; r_q15 <= 2^16 (clamped
  * below 2^16 where a product needs it), so r w <= 2^30 and (r w / 2^14) T
  * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
-static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
+static SG_PREP uint64_t at_time(uint64_t tau64, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
-    uint32_t t = (uint32_t)(tau >> 16);
-    if (T == 0 || t >= T || r_q15 == 0)
-        return tau;
+    if (T == 0 || (tau64 >> 16) >= T || r_q15 == 0)
+        return tau64;
+    /* from here tau < T 2^16 < 3 2^30 (T below): 32 bits, and so is the
+     * result (eps < 2^28) */
+    const uint32_t tau = (uint32_t)tau64, t = tau >> 16;
     if (r_q15 > 0xFFFFu)
         r_q15 = 0xFFFFu;
     uint32_t u_q16 = (t * invT_q30) >> 14;
@@ -112,16 +154,33 @@ static uint64_t at_time(uint64_t tau, uint32_t T, uint32_t invT_q30, uint32_t r_
     else
         eps += fix;
     if (accel)
-        return tau + eps;
+        return (uint64_t)(tau + eps);
     return tau > eps ? tau - eps : 0u;
 }
 
+/* The times of the first and the last event of a segment (d_first, d_last
+ * µm Q8 into it): at_time of their times at the mean speed, within the
+ * segment's time seg_q16 and in order. */
+static SG_PREP void ev_span(const struct pk_stepgen *sg, uint32_t d_first, uint32_t d_last,
+                            uint64_t seg_q16, uint32_t T, uint32_t invT_q30, uint32_t r_q15,
+                            bool accel, uint64_t t[2])
+{
+    uint64_t t_first = at_time(clock_time(sg, d_first), T, invT_q30, r_q15, accel);
+    uint64_t t_last = at_time(clock_time(sg, d_last), T, invT_q30, r_q15, accel);
+    if (t_last > seg_q16)
+        t_last = seg_q16;
+    if (t_first > t_last)
+        t_first = t_last;
+    t[0] = t_first;
+    t[1] = t_last;
+}
+
 /* 2^30 / T, T whole ticks (>= 1). */
-static uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
+static SG_PREP uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
 
 /* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
  * so that the division is 32-bit. */
-static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
+static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 {
     while (vsum >= 65536u) {
         vsum >>= 1;
@@ -131,7 +190,7 @@ static uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 }
 
 /* The block's cached speeds (isqrt only when the plan changed them). */
-static void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
+static SG_PREP void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
 {
     if (b->v2_nom != sg->c_v2_nom) {
         sg->c_v2_nom = b->v2_nom;
@@ -157,10 +216,11 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
         sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
     if (sg->seg_max < 16u)
         sg->seg_max = 16u;
-    sg->tick_num = (uint64_t)tick_hz << 13;
     /* per block with full-length segments: ds = vsum g, dv = accel kdv */
-    sg->g_max_q24 = (uint32_t)(((uint64_t)8u * sg->seg_max << 24) / tick_hz);
-    sg->kdv_q24 = (uint32_t)(((uint64_t)sg->seg_max * 16u << 24) / tick_hz);
+    /* (seg_max <= max(tick_hz / 500, 16): both quotients are below 2^32, so
+     * the saturating helper gives the plain quotient) */
+    sg->g_max_q24 = pk_muldiv_u32(8u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
+    sg->kdv_q24 = pk_muldiv_u32(16u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
@@ -175,7 +235,7 @@ uint32_t pk_sg_pending(const struct pk_stepgen *sg)
     return (uint8_t)(h - t);
 }
 
-static struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
+static SG_PREP struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
 {
     if (pk_sg_pending(sg) >= PK_SG_CHUNKS)
         return NULL;
@@ -229,7 +289,7 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
  * then the intervals c1 + A, c1 + 2A, ... (the ramp of one segment). Several
  * slots when n exceeds PK_SG_MAX_EVENTS or the first interval exceeds the
  * recurrence's range; each goes on where the last one stopped. */
-static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
+static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
                         uint32_t v_um_s)
 {
     while (n > 0) {
@@ -265,74 +325,90 @@ static bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32
 
 /* Cut the next segment of the tail LINE block b. Returns false if none
  * (held, or the ring has no room for it). */
-static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
+/* A LINE block's first segment: the block's own slot (directions,
+ * spindle, Bresenham), then its segment length and speed steps. Returns false
+ * if the ring has no room for the slot. */
+static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
 {
-    if (!sg->blk_sent) {
-        /* the block's own slot first: directions, spindle, Bresenham */
-        struct pk_sg_chunk *c = ring_slot(sg);
-        if (c == NULL)
-            return false;
-        c->kind = PK_SGC_BLOCK;
-        c->arg = b->dir_mask;
-        c->spindle = b->spindle;
-        memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
-        memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
-        c->u.blk.period = b->period;
-        ring_commit(sg);
-        sg->blk_sent = true;
-        sg->v2_blk = sg->v2;
-        sg->off_plan = sg->hold;
-        /* event k lies at floor(k L / M): stepped incrementally below */
-        sg->ev_q = b->len_q8 / b->events;
-        sg->ev_r = b->len_q8 % b->events;
-        sg->ev_next = sg->ev_q;
-        sg->ev_rem = sg->ev_r;
-        /* The segment: 2 ms, or shorter so that at twice the nominal speed
-         * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
-         * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
-         * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
-         * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
-         * products stay below 2^50). */
-        blk_speeds(sg, b);
-        uint32_t seg = sg->seg_max;
-        uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
-        uint64_t need = (uint64_t)seg * (2u * (uint64_t)sg->vn_q4 + 1u);
-        if (room < need) {
-            uint64_t lim = room / (2u * (uint64_t)sg->vn_q4 + 1u);
-            seg = lim < 16u ? 16u : (uint32_t)lim;
-            /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
-             * segment a (µm/s^2) seg / tick_hz, Q4 */
-            sg->g_q24 = (uint32_t)(((uint64_t)8u * seg << 24) / sg->tick_hz);
-            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * seg * 16u) / sg->tick_hz);
-        } else {
-            sg->g_q24 = sg->g_max_q24;
-            sg->dv_q4 = (uint32_t)(((uint64_t)b->accel * sg->kdv_q24) >> 24);
-        }
-        if (sg->dv_q4 == 0)
-            sg->dv_q4 = 1;
-        sg->seg_ticks = seg;
-        sg->invT_q30 = inv_q30(seg);
-        /* longer segments (x2, x4) where the event limit and the recurrence's
-         * range allow: see seg_level */
-        uint8_t lv = 0;
-        while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
-               && room >= need << (lv + 1u))
-            lv++;
-        sg->lvl_max = lv;
-    }
-    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
-     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
-     * at the highest override */
-    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+    /* the block's own slot first: directions, spindle, Bresenham */
+    struct pk_sg_chunk *c = ring_slot(sg);
+    if (c == NULL)
         return false;
+    c->kind = PK_SGC_BLOCK;
+    c->arg = b->dir_mask;
+    c->spindle = b->spindle;
+    memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
+    memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
+    c->u.blk.period = 256u * b->events;   /* the Bresenham period (M <= 2^21) */
+    ring_commit(sg);
+    sg->blk_sent = true;
+    sg->v2_blk = sg->v2;
+    sg->off_plan = sg->hold;
+    /* event k lies at floor(k L / M): stepped incrementally below */
+    sg->ev_q = b->len_q8 / b->events;
+    sg->ev_r = b->len_q8 % b->events;
+    sg->ev_next = sg->ev_q;
+    sg->ev_rem = sg->ev_r;
+    /* The segment: 2 ms, or shorter so that at twice the nominal speed
+     * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
+     * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
+     * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
+     * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
+     * products stay below 2^50). */
     blk_speeds(sg, b);
+    uint32_t seg = sg->seg_max;
+    /* room >= seg' (2 vn + 1) <=> lim >= seg' for integers, lim = floor(room
+     * / (2 vn + 1)) (saturated: every seg' compared is below 2^17) */
+    const uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
+    const uint32_t lim = div64_max(room, 2u * sg->vn_q4 + 1u, UINT32_MAX); /* vn < 2^24 */
+    if (lim < seg) {
+        seg = lim < 16u ? 16u : lim;
+        /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
+         * segment a (µm/s^2) seg / tick_hz, Q4 */
+        /* (seg <= seg_max: both quotients are far below 2^32, so the
+         * saturating helpers give the plain quotients) */
+        sg->g_q24 = pk_muldiv_u32(8u * seg, (uint32_t)1 << 24, sg->tick_hz);
+        sg->dv_q4 = pk_muldiv_u32(b->accel, 16u * seg, sg->tick_hz);
+    } else {
+        sg->g_q24 = sg->g_max_q24;
+        sg->dv_q4 = pk_mulshr_u32(b->accel, sg->kdv_q24, 24u);
+    }
+    if (sg->dv_q4 == 0)
+        sg->dv_q4 = 1;
+    sg->seg_ticks = seg;
+    sg->invT_q30 = inv_q30(seg);
+    /* longer segments (x2, x4) where the event limit and the recurrence's
+     * range allow: see seg_level */
+    uint8_t lv = 0;
+    while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
+           && lim >= (sg->seg_max << (lv + 1u)))
+        lv++;
+    sg->lvl_max = lv;
+    return true;
+}
+
+/* One segment of the tail LINE block, between its speed phase (seg_speeds)
+ * and its events (seg_events): separate functions so that each keeps a small
+ * stack frame (on an 8-bit core a frame beyond 64 bytes costs an address
+ * adjustment at every access). */
+struct sg_seg {
+    uint32_t s0, v0, v1, ds;
+    uint64_t v12;   /* v1^2 once known (0: not yet) */
+    uint8_t lv;     /* segment length level */
+    bool full;      /* a whole segment of seg_ticks (else a phase ends inside) */
+};
+
+/* The speed phase of the next segment: its level, end speed and length.
+ * Returns false when a hold has come to rest (held). */
+static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, struct sg_seg *sp)
+{
     const uint32_t L = b->len_q8, s0 = sg->s_q8, v0 = sg->v_q4;
     const uint32_t two_a = 2u * (uint32_t)b->accel;     /* (µm/s)^2 Q8 per µm Q8, < 2^31 */
     const uint32_t ve = sg->hold ? 0u : sg->ve_q4;
     const uint64_t v02 = sg->v_sq, ve2 = sg->hold ? 0u : sg->ve_sq;
     /* the speed^2 the end of the block allows here: the line
      * v^2 = v_exit^2 + 2a(L - s) (a hold: v^2 = 0 + 2a(s_stop - s), i.e. decelerate now) */
-    const uint64_t line0 = ve2 + (uint64_t)two_a * (L - s0);
+    const uint64_t line0 = mac64(ve2, two_a, L - s0);
     /* the segment's length: the base one, doubled while the speed changes
      * by at most 1/2^PK_SG_RAMP_SHIFT of itself over it (the interval ramp
      * is a first-order model of the acceleration: its error grows as the
@@ -361,11 +437,10 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
             /* (rounded to nearest, here and below: rounding down would
              * bias every segment's acceleration up, rounding up would let a
              * long deceleration drift above its braking line) */
-            ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+            ds = mul_q24_round(v0 + v1, g_q24);
         } else {
             v1 = vt;
-            uint64_t d = (v02 - sq64(vt)) / (two_a ? two_a : 1u);
-            ds = d > L - s0 ? L - s0 : (uint32_t)d;
+            ds = div64_max(v02 - sq64(vt), two_a ? two_a : 1u, L - s0);
             full = false;
         }
     } else {
@@ -374,25 +449,20 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         v1 = v0 + dv < sg->vn_q4 ? v0 + dv : sg->vn_q4;
         if (v1 == 0)
             v1 = dv; /* at rest with a zero nominal: cannot happen, but move */
-        ds = (uint32_t)(((uint64_t)(v0 + v1) * g_q24 + 0x800000u) >> 24);
+        ds = mul_q24_round(v0 + v1, g_q24);
         if (ds == 0)
             ds = 1;
         uint32_t se = s0 + ds < L ? s0 + ds : L;
         v12 = sq64(v1);
-        if (v12 + (uint64_t)two_a * (se - s0) > line0) {
+        if (mac64(v12, two_a, se - s0) > line0) {
             /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
-             * line: accelerate (or cruise) until there */
-            uint64_t d;
-            if (v1 > v0)
-                d = (line0 - v02) / (2u * (uint64_t)two_a);     /* the two lines meet */
-            else
-                d = (line0 - v02) / (two_a ? two_a : 1u);       /* cruise meets the line */
-            if (d > L - s0)
-                d = L - s0;
-            ds = (uint32_t)d;
+             * line: accelerate (or cruise) until there: the two lines
+             * meet, or cruise meets the line */
+            const uint64_t den = v1 > v0 ? 2u * (uint64_t)two_a : (two_a ? two_a : 1u);
+            ds = div64_max(line0 - v02, den, L - s0);
             if (ds == 0)
                 ds = 1;
-            v1 = v1 > v0 ? pk_isqrt64(v02 + (uint64_t)two_a * ds) : v0;
+            v1 = v1 > v0 ? pk_isqrt64(mac64(v02, two_a, ds)) : v0;
             if (v1 > sg->vn_q4)
                 v1 = sg->vn_q4;
             v12 = 0;
@@ -403,12 +473,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         /* the block ends inside this segment: end exactly there, at the speed
          * the constant acceleration reaches there */
         ds = L - s0;
-        uint64_t e2 = v02;
-        const uint64_t ad = (uint64_t)two_a * ds;
-        if (v1 > v0)
-            e2 += ad;
-        else if (v1 < v0)
-            e2 = e2 > ad ? e2 - ad : 0;
+        const uint64_t e2 = v1 > v0 ? mac64(v02, two_a, ds) : v1 < v0 ? msub64(v02, two_a, ds) : v02;
         uint32_t vl = pk_isqrt64(e2);
         if (v1 > v0 && vl > v1)
             vl = v1;
@@ -418,6 +483,24 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         v12 = 0;
         full = false;
     }
+    sp->s0 = s0;
+    sp->v0 = v0;
+    sp->v1 = v1;
+    sp->ds = ds;
+    sp->v12 = v12;
+    sp->lv = lv;
+    sp->full = full;
+    return true;
+}
+
+/* The events of the segment sp, and the state it leaves. Returns false if
+ * the ring had no room (the caller checked it). */
+static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, const struct sg_seg *sp)
+{
+    const uint32_t s0 = sp->s0, v0 = sp->v0, v1 = sp->v1, ds = sp->ds;
+    const uint64_t v12 = sp->v12;
+    const uint8_t lv = sp->lv;
+    const bool full = sp->full;
     /* The segment's duration from its length (not the nominal seg_ticks: ds
      * is rounded down, and the time must be the time of the distance, or
      * the carry would put the rounding into the interval across the next
@@ -444,7 +527,7 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         }
     }
     const uint32_t e = sg->e + n;
-    uint32_t vrep = (uint32_t)(((uint64_t)v1 + 8u) >> 4);
+    uint32_t vrep = (v1 + 8u) >> 4;   /* v1 < 2^24 */
     uint64_t carry = sg->carry_q16 + seg_q16;
     if (n > 0) {
         /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
@@ -452,12 +535,9 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
         const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
         const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
         const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
-        uint64_t t_first = at_time(clock_time(sg, p_first - s0), T, invT, r_q15, v1 > v0);
-        uint64_t t_last = at_time(clock_time(sg, p_last - s0), T, invT, r_q15, v1 > v0);
-        if (t_last > seg_q16)
-            t_last = seg_q16;
-        if (t_first > t_last)
-            t_first = t_last;
+        uint64_t tt[2];
+        ev_span(sg, p_first - s0, p_last - s0, seg_q16, T, invT, r_q15, v1 > v0, tt);
+        const uint64_t t_first = tt[0], t_last = tt[1];
         /* The n - 1 intervals after the first: their mean is span / (n - 1);
          * they ramp with the speed, the interval being inversely
          * proportional to it: from the mean, the change across the segment
@@ -511,6 +591,45 @@ static bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     return true;
 }
 
+/* Cut the next segment of the tail LINE block b. Returns false if none
+ * (held, or the ring has no room for it). */
+static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
+{
+    if (!sg->blk_sent && !blk_start(sg, b))
+        return false;
+    /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
+     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
+     * at the highest override */
+    if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
+        return false;
+    blk_speeds(sg, b);
+    struct sg_seg sp;
+    if (!seg_speeds(sg, b, &sp))
+        return false;
+    return seg_events(sg, b, &sp);
+}
+
+/* The preparation at rest (after a stop block, or emptied). */
+static SG_PREP void prep_at_rest(struct pk_stepgen *sg)
+{
+    sg->v2 = 0;
+    sg->v_sq = 0;
+    sg->v_q4 = 0;
+    sg->carry_q16 = 0;
+}
+
+/* No block being cut, no hold, at rest. */
+static SG_PREP void prep_clear(struct pk_stepgen *sg)
+{
+    sg->prep_active = false;
+    sg->blk_sent = false;
+    sg->hold = false;
+    sg->held = false;
+    sg->e = 0;
+    sg->s_q8 = 0;
+    prep_at_rest(sg);
+}
+
 bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
 {
     bool added = false;
@@ -538,15 +657,11 @@ bool pk_sg_prep(struct pk_stepgen *sg, struct pk_mq *q, uint32_t max_blocks)
                                                   : PK_SGC_WAIT;
             c->arg = b->tool;
             c->spindle = b->spindle;
-            uint64_t w = (uint64_t)b->wait_ms * sg->tick_hz / 1000u; /* < 2^27 * 2^24 */
-            c->u.ticks = (uint32_t)(w > UINT32_MAX ? UINT32_MAX : w);
+            c->u.ticks = pk_muldiv_u32(b->wait_ms, sg->tick_hz, 1000u); /* saturated */
             ring_commit(sg);
             pk_mq_pop(q);
             max_blocks--;
-            sg->v2 = 0;
-            sg->v_sq = 0;
-            sg->v_q4 = 0;
-            sg->carry_q16 = 0;
+            prep_at_rest(sg);
             added = true;
             continue;
         }
@@ -578,16 +693,7 @@ int pk_sg_kill(struct pk_stepgen *sg, const struct pk_hal *hal)
     }
     pk_hal_irq_restore(hal, tok);
     if (pulse) {
-        sg->prep_active = false;
-        sg->blk_sent = false;
-        sg->hold = false;
-        sg->held = false;
-        sg->e = 0;
-        sg->s_q8 = 0;
-        sg->v2 = 0;
-        sg->v_sq = 0;
-        sg->v_q4 = 0;
-        sg->carry_q16 = 0;
+        prep_clear(sg);
         return 1;
     }
     if (hal->ops->timer_stop)
@@ -600,16 +706,7 @@ void pk_sg_flush(struct pk_stepgen *sg)
 {
     sg->head = 0u;
     sg->tail = 0u;
-    sg->prep_active = false;
-    sg->blk_sent = false;
-    sg->hold = false;
-    sg->held = false;
-    sg->e = 0;
-    sg->s_q8 = 0;
-    sg->v2 = 0;
-    sg->v_sq = 0;
-    sg->v_q4 = 0;
-    sg->carry_q16 = 0;
+    prep_clear(sg);
     sg->phase = PK_SGP_GAP;
     sg->left = 0;
     sg->mask_due = 0;

@@ -161,7 +161,6 @@ struct pk_stepgen {
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
     uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
-    uint64_t tick_num;         /**< tick_hz * 2^13 (segment clocks) */
     uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
     uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
     uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */

@@ -227,9 +227,9 @@ static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
     if (kc < kink)
         kink = kc;
     /* h = min(cap << 8, lmin) without the 38-bit shift: cap << 8 > lmin
-     * exactly when cap > lmin >> 8 (integers) */
+     * exactly when cap > lmin >> 8 (integers); either way h <= lmin < 2^31 */
     uint32_t lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;
-    uint64_t h_q8 = cap > (lmin >> 8) ? lmin : cap << 8;
+    uint32_t h_q8 = cap > (lmin >> 8) ? lmin : cap << 8;
     /* cos^2(phi/2) = (1 + cos)/2, sin(phi/2) = sqrt((1 - cos)/2), Q30. In 64
      * bits: the unit vectors' rounding can put cos a hair beyond ±2^30, and
      * the result must stay that of the 64-bit expressions there too. */
@@ -237,7 +237,7 @@ static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
     uint32_t sh = pk_isqrt64(((uint64_t)((int64_t)PK_Q30_ONE - cos_q30) / 2u) << 30);
     if (sh == 0)
         return true;
-    uint64_t r_q8 = (h_q8 * (c2 >> 10)) / (sh >> 10); /* µm Q8 */
+    uint64_t r_q8 = ((uint64_t)h_q8 * (c2 >> 10)) / (sh >> 10); /* µm Q8 */
     /* v^2 (Q4) = a * r: a (µm/s^2) * r_q8 / 256 * 16 */
     pk_v2_q4_t blend = ((uint64_t)st->dyn.a_side * r_q8) >> 4;
     /* the blend must win clearly: its decimated chords are less regular
@@ -267,14 +267,19 @@ static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
     }
     /* |u| <= 2^30 (1 + 2^-12): the dot product and the cross products, Q30
      * after the shift, fit 32 bits */
-    int64_t dot64 = 0;
-    for (unsigned i = 0; i < n; i++)
-        dot64 += (int64_t)u1[i] * u2[i];
-    int32_t dot = (int32_t)(dot64 >> 30);
+    int32_t dot;
+    if (PK_AXES == 2 || n == 2) {    /* (the same sum of two products) */
+        dot = mac2_q30(u1[0], u2[0], u1[1], u2[1]);
+    } else {
+        int64_t dot64 = 0;
+        for (unsigned i = 0; i < n; i++)
+            dot64 += (int64_t)u1[i] * u2[i];
+        dot = (int32_t)(dot64 >> 30);
+    }
     if (dot < st->cos_sharp)
         return 0;
     uint64_t s2 = 0;                 /* |u1 x u2|^2 in Q60 */
-    if (n == 2) {
+    if (PK_AXES == 2 || n == 2) {
         int32_t cr = mac2_q30(u1[0], u2[1], -u1[1], u2[0]);
         s2 = (uint64_t)((int64_t)cr * cr);
     } else {

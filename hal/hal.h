@@ -129,7 +129,11 @@ struct pk_hal_ops {
      *  fraction of full scale in Q0.16 (0 = off, or the servo's "up" end,
      *  65535 = full scale); the board maps it to a PWM duty cycle or to a servo
      *  pulse width between its configured limits. Must be bounded (register
-     *  writes only). NULL: the board has no such output. */
+     *  writes only). NULL: the board has no such output. A board whose pen IS
+     *  the servo (the AVR boards, a gpiod `servo_pwm`) puts it, on tool level
+     *  1, at the last value written here (M3 S; full scale while that is 0)
+     *  and on level 0 at the up end; a value written while the pen is up
+     *  waits for the next pen-down. */
     int (*spindle_write)(void *ctx, uint16_t value_q16);
 
     /** [ISR][MAIN] Optional: read the raw levels of every input line into

@@ -29,7 +29,12 @@ trap cleanup EXIT
 start() {  # binary, link, trace
   "$1" --board "$BOARD" --no-realtime --mock-trace "$3" serve --link "$2" >"$tmp/out" 2>"$tmp/err" &
   srv=$!
-  for _ in $(seq 200); do [[ -e $2 ]] && break; sleep 0.05; done
+  # the symlink comes first, the banner once the loop is set up: wait for both
+  for _ in $(seq 200); do
+    [[ -e $2 ]] && grep -q "Grbl 1.1 on" "$tmp/out" 2>/dev/null && break
+    kill -0 "$srv" 2>/dev/null || break
+    sleep 0.05
+  done
 }
 stop() {   # -> rc
   kill -TERM "$srv"
@@ -224,5 +229,41 @@ else
   bad "serve without a line, with two lines, or on a missing device is refused with a reason" \
       "$r1 $r2 $r3" "$(cat "$tmp/u1" "$tmp/u2" "$tmp/u3")"
 fi
+# 7. The pen as a servo on a kernel PWM channel (servo_pwm): a fake sysfs
+# channel whose duty_cycle is a FIFO, so every pulse width the board writes is
+# seen in order. M3 S1000 = the far end (2.0 ms), M5 = up (1.0 ms), M3 S250 =
+# a quarter of the range; 50 Hz frames; disabled when the run ends.
+pwm="$tmp/pwm0"; mkdir -p "$pwm"; echo 0 >"$pwm/period"; echo 0 >"$pwm/enable"; mkfifo "$pwm/duty_cycle"
+# the reader reopens the FIFO after each writer closes it, until it reads END
+timeout 90 $PY -c '
+import sys
+out = open(sys.argv[2], "w")
+while True:
+    with open(sys.argv[1]) as f:
+        for ln in f:
+            if ln.strip() == "END":
+                sys.exit(0)
+            out.write(ln); out.flush()
+' "$pwm/duty_cycle" "$tmp/widths" &
+rdr=$!
+grep -v '^pen ' "$BOARD" >"$tmp/servo.conf"; echo "servo_pwm $pwm" >>"$tmp/servo.conf"
+printf 'G21 G90\nM3 S1000\nG1 X5 Y5 F3000\nM5\nG0 X0 Y0\nM3 S250\nG1 X3 F3000\nM5\nM2\n' >"$tmp/servo.gcode"
+timeout 60 "$BUILD/plotkin-gpiod-mock" --board "$tmp/servo.conf" --no-realtime "$tmp/servo.gcode" >"$tmp/out" 2>&1; rc=$?
+timeout 10 sh -c 'echo END >"$1"' sh "$pwm/duty_cycle"; wait "$rdr" 2>/dev/null
+widths=$(tr '\n' ' ' <"$tmp/widths")
+if [[ $rc -eq 0 && $widths == "0 1000000 2000000 1000000 1250004 1000000 " && $(cat "$pwm/period") == 20000000 &&
+      $(cat "$pwm/enable") == 0 ]]; then
+  ok "a servo pen on a kernel PWM channel: 20 ms frames, widths up/S1000/up/S250/up in order, disabled at the end"
+else
+  bad "a servo pen on a kernel PWM channel" "exit $rc" "widths: $widths" "$(cat "$pwm/period" "$pwm/enable" "$tmp/out")"
+fi
+printf 'servo_pwm %s/nope/pwm3\n' "$tmp" | cat <(grep -v '^pen ' "$BOARD") - >"$tmp/servo_bad.conf"
+timeout 20 "$BUILD/plotkin-gpiod-mock" --board "$tmp/servo_bad.conf" --no-realtime "$tmp/servo.gcode" >"$tmp/out" 2>&1; rc=$?
+if [[ $rc -ne 0 ]] && grep -q "servo PWM $tmp/nope/pwm3" "$tmp/out"; then
+  ok "a servo channel that is not there: a clear error naming it, no run"
+else
+  bad "a servo channel that is not there: a clear error naming it, no run" "exit $rc" "$(cat "$tmp/out")"
+fi
+
 echo "$pass passed, $fail failed"
 [[ $fail -eq 0 ]]

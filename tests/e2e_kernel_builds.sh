@@ -29,6 +29,7 @@ builds=(
   "chaikin:-DPK_AXES=2 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0"
   "chaikin-d5-limit:-DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0"
   "chaikin-d5:-DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0"
+  "chaikin-d5-fast-pull:-DPK_AXES=2 -DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 -DPK_REFINE_FAST_PULL=1"
   "chaikin-d5-all-ends:-DPK_MAX_DEPTH=5 -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x0A"
   "cubic-d3:-DPK_MAX_DEPTH=3 -DPK_BUILD_DEGREES=0x08 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x0A"
   "linear:-DPK_BUILD_DEGREES=0x02 -DPK_BUILD_DLG=0"
@@ -44,6 +45,12 @@ for b in "${builds[@]}"; do
   if ! cc $CFLAGS $flags -o "$exe" tests/kernel_build_check.c $KSRC 2>"$out/$name.err"; then
     bad "$name builds ($(head -n 3 "$out/$name.err" | tr '\n' ' '))"; continue
   fi
+  # shellcheck disable=SC2086
+  if cc $CFLAGS $flags -DLAYOUT_FIXED_FIRST=1 -c -o "$out/layout-$name-a.o" tests/kernel_layout_check.c 2>"$out/$name.err" &&
+     cc $CFLAGS $flags -DLAYOUT_FIXED_FIRST=0 -o "$out/layout-$name" tests/kernel_layout_check.c "$out/layout-$name-a.o" 2>>"$out/$name.err"; then
+    lay=$("$out/layout-$name") && ok "$name: one layout of the kernel state in every unit ($lay)" \
+      || bad "$name: the kernel state's layout depends on the include order ($lay)"
+  else bad "$name: the layout check builds ($(head -n 3 "$out/$name.err" | tr '\n' ' '))"; fi
   "$exe" > "$out/$name.out"; rc=$?
   last=$(tail -n 1 "$out/$name.out"); info=$(grep '^#' "$out/$name.out")
   if [[ $rc -eq 0 ]]; then ok "$name: $last ${info#\# }"; else

@@ -5,6 +5,7 @@
  */
 #include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include "th.h"
 #include "gpiod/pk_gpiod.h"
@@ -324,6 +325,112 @@ static void test_the_mock_refuses_what_libgpiod_refuses(void)
     TH_EXPECT(gpiod_chip_open_lookup("pk-test-m") == NULL && errno == ENOENT);
 }
 
+/* ---- the pen servo on a kernel PWM channel (a fake sysfs directory) ---- */
+
+static void slurp_small(const char *dir, const char *name, char *out, size_t n)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "r");
+    size_t k = f ? fread(out, 1, n - 1, f) : 0;
+    out[k] = '\0';
+    out[strcspn(out, "\n")] = '\0'; /* sysfs takes "N\n"; a regular file keeps older tails */
+    if (f)
+        fclose(f);
+}
+
+static void touch(const char *dir, const char *name, const char *text)
+{
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs(text, f);
+        fclose(f);
+    }
+}
+
+static int servo_open(struct rig *r, const char *chip, const char *pwm_dir, const char *extra)
+{
+    memset(r, 0, sizeof *r);
+    pk_sim_sched_init(&r->sched, 1000000u, 10u);
+    pk_sim_sched_hal(&r->sched, &r->base);
+    pk_gpiod_mock_init(&r->chip, chip, 32);
+    r->chip.clock = pk_sim_sched_clock;
+    r->chip.clock_arg = &r->sched;
+    if (pk_gpiod_mock_register(&r->chip) != 0)
+        return -100;
+    char text[512], err[160];
+    snprintf(text, sizeof text, "chip %s\nstep 17 27\ndir 22 23\nservo_pwm %s\n%s", chip, pwm_dir, extra);
+    pk_gpiod_cfg_init(&r->cfg);
+    if (pk_gpiod_cfg_parse(&r->cfg, text, err, sizeof err) != PK_HAL_OK) {
+        printf("    %s\n", err);
+        return -101;
+    }
+    return pk_gpiod_open(&r->g, &r->cfg, &r->base, &r->hal);
+}
+
+static void test_a_servo_pen_is_a_kernel_pwm_channel_set_in_ns(void)
+{
+    char dir[] = "/tmp/pk-pwm-XXXXXX", v[32];
+    TH_ASSERT(mkdtemp(dir) != NULL);
+    touch(dir, "period", "0");
+    touch(dir, "duty_cycle", "0");
+    touch(dir, "enable", "0");
+    struct rig r;
+    TH_ASSERT_EQ(servo_open(&r, "pk-test-s", dir, "servo_min_us 900\nservo_max_us 2100\n"), PK_HAL_OK);
+    TH_EXPECT(r.hal.ops->spindle_write != NULL);
+    slurp_small(dir, "period", v, sizeof v);
+    TH_EXPECT(strcmp(v, "20000000") == 0); /* 50 Hz frames, ns */
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "900000") == 0);   /* opened with the pen up */
+    slurp_small(dir, "enable", v, sizeof v);
+    TH_EXPECT(strcmp(v, "1") == 0);
+    TH_EXPECT_EQ(pk_hal_tool_write(&r.hal, 1), PK_HAL_OK); /* pen down: the far end */
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "2100000") == 0);
+    TH_EXPECT_EQ(pk_hal_spindle_write(&r.hal, 32768), PK_HAL_OK); /* M3 S at half the range */
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "1500009") == 0); /* 900000 + 1200000 * 32768 / 65535, rounded */
+    TH_EXPECT_EQ(pk_hal_tool_write(&r.hal, 0), PK_HAL_OK);
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "900000") == 0);
+    TH_EXPECT_EQ(pk_hal_spindle_write(&r.hal, 16384), PK_HAL_OK); /* S while up: kept, pen stays up */
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "900000") == 0);
+    TH_EXPECT_EQ(pk_hal_tool_write(&r.hal, 1), PK_HAL_OK); /* down at that S */
+    slurp_small(dir, "duty_cycle", v, sizeof v);
+    TH_EXPECT(strcmp(v, "1200005") == 0); /* 900000 + 1200000 * 16384 / 65535 */
+    TH_EXPECT_EQ(pk_hal_tool_write(&r.hal, 0), PK_HAL_OK);
+    pk_gpiod_close(&r.g);
+    slurp_small(dir, "enable", v, sizeof v);
+    TH_EXPECT(strcmp(v, "0") == 0); /* released: no pulses any more */
+    pk_gpiod_mock_unregister(&r.chip);
+    /* a channel that does not exist and cannot be exported: a clear error, nothing held */
+    char missing[300];
+    snprintf(missing, sizeof missing, "%s/pwm7", dir);
+    touch(dir, "export", "");
+    TH_EXPECT_EQ(servo_open(&r, "pk-test-s", missing, ""), PK_HAL_EIO);
+    const char *e = pk_gpiod_error_text(&r.g);
+    TH_EXPECT(strstr(e, "servo PWM") != NULL && strstr(e, "pwm7") != NULL);
+    slurp_small(dir, "export", v, sizeof v);
+    TH_EXPECT(strcmp(v, "7") == 0); /* it asked the chip to export channel 7 */
+    TH_EXPECT_EQ(r.chip.requested, 0); /* the GPIO lines were released again */
+    pk_gpiod_close(&r.g);
+    pk_gpiod_mock_unregister(&r.chip);
+    /* settings that cannot work are refused when the file is read */
+    struct pk_gpiod_cfg c;
+    char err[160] = "";
+    TH_EXPECT_EQ(parse(&c, "step 1\ndir 2\npen 3\nservo_pwm /x/pwm0\n", err, sizeof err), PK_HAL_EINVAL);
+    TH_EXPECT(strstr(err, "both given") != NULL);
+    TH_EXPECT_EQ(parse(&c, "step 1\ndir 2\nservo_pwm /x/pwm0\nservo_max_us 25000\n", err, sizeof err),
+                 PK_HAL_EINVAL);
+    TH_EXPECT(strstr(err, "servo_min_us < servo_max_us < servo_frame_us") != NULL);
+    char cmd[400];
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    TH_EXPECT(system(cmd) == 0);
+}
+
 int th_main(int argc, char **argv);
 int th_main(int argc, char **argv)
 {
@@ -342,6 +449,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_failing_set_is_eio_with_a_message_and_can_be_retried),
         TH_CASE(test_two_chips_do_not_disturb_each_other),
         TH_CASE(test_the_mock_refuses_what_libgpiod_refuses),
+        TH_CASE(test_a_servo_pen_is_a_kernel_pwm_channel_set_in_ns),
     };
     return th_run(cases, TH_COUNT(cases));
 }

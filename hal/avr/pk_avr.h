@@ -55,7 +55,9 @@ struct pk_avr {
     void *in_arg;
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
-    /* servo */
+    /* servo (the pen): the last spindle value (M3 S) is its down position */
+    uint16_t pen_value;           /**< last spindle_write value (0: full scale) */
+    uint8_t pen_down;             /**< last tool_write level */
     volatile uint16_t servo_ocr;  /**< compare value to apply at the next safe point */
     volatile uint8_t servo_phase; /**< pk_avr_servo8.c: period of the 5-period frame */
 };

@@ -42,10 +42,23 @@ static int avr_enable_write(void *ctx, uint32_t mask, uint32_t levels)
     return PK_HAL_OK;
 }
 
-/* The pen: up is the start of the servo range, down its end. */
+/* The pen is the servo: up is the start of its range; down is the last
+ * spindle value (M3 S, within $30), or the far end while that is 0. A spindle
+ * value that arrives while the pen is up waits for the next pen-down. */
+static uint16_t pen_down_value(const struct pk_avr *a) { return a->pen_value ? a->pen_value : 0xFFFFu; }
+
 static int avr_tool_write(void *ctx, uint32_t level)
 {
-    return pk_avr_servo_write(ctx, level ? 0xFFFFu : 0u);
+    struct pk_avr *a = ctx;
+    a->pen_down = (uint8_t)(level & 1u);
+    return pk_avr_servo_write(a, a->pen_down ? pen_down_value(a) : 0u);
+}
+
+static int avr_spindle_write(void *ctx, uint16_t value_q16)
+{
+    struct pk_avr *a = ctx;
+    a->pen_value = value_q16;
+    return a->pen_down ? pk_avr_servo_write(a, pen_down_value(a)) : PK_HAL_OK;
 }
 
 static uint32_t avr_irq_save(void *ctx)
@@ -69,7 +82,7 @@ static const struct pk_hal_ops avr_ops = {
     .dir_write = avr_dir_write,
     .enable_write = avr_enable_write,
     .tool_write = avr_tool_write,
-    .spindle_write = pk_avr_servo_write,
+    .spindle_write = avr_spindle_write,
     .timer_start = pk_avr_timer_start,
     .timer_stop = pk_avr_timer_stop,
     .clock_ticks = pk_avr_clock_ticks,

@@ -13,8 +13,10 @@
 #include <string.h>
 #include "pk_gpiod.h"
 #include "pk_gpiod_port.h"
+#include "pk_gpiod_servo.h"
 
 enum { OP_NONE = 0, OP_CONFIG, OP_OPEN, OP_REQUEST, OP_SET, OP_GET, OP_EVENTS };
+_Static_assert(OP_CONFIG == PK_GPIOD_ERR_TEXT, "the servo's failures report their own text");
 
 static const char *const group_name[PK_GPIOD_GROUPS + 1] = { "step", "dir", "enable", "pen",
                                                              "input" };
@@ -97,7 +99,21 @@ static int op_enable_write(void *ctx, uint32_t mask, uint32_t levels)
 
 static int op_tool_write(void *ctx, uint32_t level)
 {
-    return group_write(ctx, PK_GPIOD_PEN, 1u, level & 1u);
+    struct pk_gpiod *g = ctx;
+    if (g->servo_fd >= 0) { /* the pen is the servo, as on the AVR boards */
+        g->pen_down = (uint8_t)(level & 1u);
+        return pk_gpiod_servo_write(g, g->pen_down ? (g->pen_value ? g->pen_value : 0xFFFFu) : 0u);
+    }
+    return group_write(g, PK_GPIOD_PEN, 1u, level & 1u);
+}
+
+/* The servo pen's down position is the last spindle value (M3 S); one that
+ * arrives while the pen is up waits for the next pen-down. */
+static int op_spindle_write(void *ctx, uint16_t value_q16)
+{
+    struct pk_gpiod *g = ctx;
+    g->pen_value = value_q16;
+    return g->pen_down ? pk_gpiod_servo_write(g, value_q16 ? value_q16 : 0xFFFFu) : PK_HAL_OK;
 }
 
 static int op_input_read(void *ctx, uint32_t *raw)
@@ -223,6 +239,26 @@ static const struct pk_hal_ops gpiod_ops = {
     .error_text = op_error_text,
 };
 
+/* The same with the pen servo's pulse width (spindle_write: M3 S). */
+static const struct pk_hal_ops gpiod_servo_ops = {
+    .version = PK_HAL_VERSION,
+    .step_write = op_step_write,
+    .dir_write = op_dir_write,
+    .enable_write = op_enable_write,
+    .tool_write = op_tool_write,
+    .spindle_write = op_spindle_write,
+    .input_read = op_input_read,
+    .input_watch = op_input_watch,
+    .timer_start = op_timer_start,
+    .timer_stop = op_timer_stop,
+    .clock_ticks = op_clock_ticks,
+    .irq_save = op_irq_save,
+    .irq_restore = op_irq_restore,
+    .uart_read = op_uart_read,
+    .uart_write = op_uart_write,
+    .error_text = op_error_text,
+};
+
 /* The input lines in request order (input bit order); bits[i]: the input of line i. */
 static unsigned input_offsets(const struct pk_gpiod_cfg *c, uint32_t *offs, uint8_t *bits)
 {
@@ -282,7 +318,9 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
                   const struct pk_hal *base, struct pk_hal *out)
 {
     memset(g, 0, sizeof *g);
+    g->servo_fd = -1;
     g->cfg = *cfg;
+    g->cfg.servo_pwm[PK_GPIOD_PATH_MAX - 1] = '\0';
     g->cfg.chip[PK_GPIOD_NAME_MAX - 1] = '\0';
     g->cfg.consumer[PK_GPIOD_NAME_MAX - 1] = '\0';
     if (pk_gpiod_cfg_check(&g->cfg, g->err, sizeof g->err) != PK_HAL_OK) {
@@ -331,10 +369,14 @@ int pk_gpiod_open(struct pk_gpiod *g, const struct pk_gpiod_cfg *cfg,
             return PK_HAL_EIO;
         }
     }
+    if (g->cfg.servo_pwm[0] != '\0' && pk_gpiod_servo_open(g) != PK_HAL_OK) {
+        pk_gpiod_port_close(&g->port);
+        return PK_HAL_EIO;
+    }
     g->opened = 1;
 
     uint32_t axes = ((uint32_t)1 << g->cfg.axes) - 1u;
-    out->ops = &gpiod_ops;
+    out->ops = g->servo_fd >= 0 ? &gpiod_servo_ops : &gpiod_ops;
     out->ctx = g;
     out->tick_hz = base->tick_hz;
     out->step_invert = g->cfg.step_invert & axes;
@@ -358,6 +400,8 @@ void pk_gpiod_close(struct pk_gpiod *g)
             (void)group_write(g, (enum pk_gpiod_group)grp, all, idle);
         }
     }
+    if (g->opened)
+        pk_gpiod_servo_close(g);
     pk_gpiod_port_close(&g->port);
     g->opened = 0;
 }

@@ -55,6 +55,7 @@ enum pk_gpiod_group {
 
 #define PK_GPIOD_NAME_MAX 64     /**< chip descriptor and consumer, incl. NUL */
 #define PK_GPIOD_ERR_MAX 160     /**< error text, incl. NUL */
+#define PK_GPIOD_PATH_MAX 96     /**< servo PWM channel directory, incl. NUL */
 
 /**
  * Board wiring. Offsets are line numbers on the chip (on a Raspberry Pi, the
@@ -81,6 +82,11 @@ struct pk_gpiod_cfg {
     uint8_t input_bias;               /**< enum pk_gpiod_bias (pk_gpiod_port.h): 0 as is */
     uint8_t input_no_edges;           /**< 1: plain inputs, no edge events (the core then
                                            reads them at every step while it watches) */
+    char servo_pwm[PK_GPIOD_PATH_MAX];/**< pen servo on this sysfs PWM channel directory
+                                           ("": none), e.g. /sys/class/pwm/pwmchip0/pwm0 */
+    uint32_t servo_min_us;            /**< pulse at value 0 = pen up (default 1000) */
+    uint32_t servo_max_us;            /**< pulse at full scale = pen down (default 2000) */
+    uint32_t servo_frame_us;          /**< PWM period (default 20000: 50 Hz) */
 };
 
 /**
@@ -111,6 +117,10 @@ struct pk_gpiod {
     pk_hal_input_cb in_cb;            /**< the core's edge callback, or NULL */
     void *in_arg;
     uint32_t in_events;               /**< edge events taken since open */
+    int servo_fd;                     /**< the servo channel's duty_cycle file (-1: none) */
+    uint32_t servo_ns;                /**< pulse width last written, ns */
+    uint16_t pen_value;               /**< servo pen: last spindle value (0: full scale) */
+    uint8_t pen_down;                 /**< servo pen: last tool level */
 };
 
 /** Set cfg to "nothing configured": no axes, consumer "plotkin", chip "gpiochip0". */
@@ -142,6 +152,12 @@ void pk_gpiod_cfg_init(struct pk_gpiod_cfg *cfg);
  *     button_invert 1         # 1: active-low hold/resume/reset buttons
  *     input_bias pull-up      # pull-up, pull-down, disable or as-is (default)
  *     input_edges 1           # 0: no edge events (polled inputs)
+ *     servo_pwm /sys/class/pwm/pwmchip0/pwm0   # optional: the pen is a servo on
+ *                             # this kernel PWM channel (exported if needed);
+ *                             # M3 S / M5 and pen moves set its pulse width
+ *     servo_min_us 1000       # pulse at pen up ($30/S0), at full scale, period
+ *     servo_max_us 2000
+ *     servo_frame_us 20000
  *
  * Keys not given keep their value in *cfg, so pk_gpiod_cfg_init first.
  * @param cfg   updated in place; on failure its content is unspecified

@@ -16,6 +16,9 @@ void pk_gpiod_cfg_init(struct pk_gpiod_cfg *cfg)
     memset(cfg, 0, sizeof *cfg);
     snprintf(cfg->chip, sizeof cfg->chip, "gpiochip0");
     snprintf(cfg->consumer, sizeof cfg->consumer, "plotkin");
+    cfg->servo_min_us = 1000u;
+    cfg->servo_max_us = 2000u;
+    cfg->servo_frame_us = 20000u;
 }
 
 static int fail(char *err, size_t errlen, unsigned line, const char *fmt, ...)
@@ -54,6 +57,13 @@ int pk_gpiod_cfg_check(const struct pk_gpiod_cfg *c, char *err, size_t errlen)
         return fail(err, errlen, 0, "gpiod config: input invert names an input that is not wired");
     if (c->input_bias > 3u)
         return fail(err, errlen, 0, "gpiod config: bad input bias");
+    if (c->servo_pwm[0] != '\0') {
+        if (c->has_pen)
+            return fail(err, errlen, 0, "gpiod config: 'pen' and 'servo_pwm' both given (the pen is one or the other)");
+        if (c->servo_min_us < 1u || c->servo_min_us >= c->servo_max_us || c->servo_max_us >= c->servo_frame_us)
+            return fail(err, errlen, 0, "gpiod config: want 0 < servo_min_us < servo_max_us < servo_frame_us (%u, %u, %u)",
+                        (unsigned)c->servo_min_us, (unsigned)c->servo_max_us, (unsigned)c->servo_frame_us);
+    }
     for (unsigned i = 0; i < c->axes; i++) {
         used[nu++] = c->step[i];
         used[nu++] = c->dir[i];
@@ -131,6 +141,14 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
         unsigned nv = nt - 1u;
         uint32_t v[PK_HAL_MAX_AXES + 1];
         int is_text = !strcmp(key, "chip") || !strcmp(key, "consumer");
+        if (!strcmp(key, "servo_pwm")) {
+            if (nv != 1u || tok[1][0] != '/')
+                return fail(err, errlen, lineno, "'servo_pwm' takes one absolute path");
+            if (strlen(tok[1]) >= PK_GPIOD_PATH_MAX)
+                return fail(err, errlen, lineno, "'servo_pwm' is too long");
+            snprintf(cfg->servo_pwm, sizeof cfg->servo_pwm, "%s", tok[1]);
+            continue;
+        }
         if (nv == 0u)
             return fail(err, errlen, lineno, "'%s' needs a value", key);
         if (!strcmp(key, "input_bias")) {
@@ -184,6 +202,9 @@ int pk_gpiod_cfg_parse(struct pk_gpiod_cfg *cfg, const char *text, char *err, si
             cfg->enables = (uint8_t)nv;
         } else if (nv != 1u) {
             return fail(err, errlen, lineno, "'%s' takes one value", key);
+        } else if (!strcmp(key, "servo_min_us") || !strcmp(key, "servo_max_us") || !strcmp(key, "servo_frame_us")) {
+            *(key[6] == 'm' && key[7] == 'i' ? &cfg->servo_min_us
+              : key[6] == 'm' ? &cfg->servo_max_us : &cfg->servo_frame_us) = v[0];
         } else if (!strcmp(key, "pen")) {
             cfg->pen = v[0];
             cfg->has_pen = 1;

@@ -7,8 +7,8 @@
  * It speaks just enough of Grbl's line protocol for the avrsim sender: a
  * greeting, one "ok" per line once the line's work is done, and a status
  * report for '?' whose MPos is the X steps it emitted at 100 steps/mm:
- *   S<v>   servo value v (0..65535) through the HAL's spindle_write, then
- *          "ok" three servo frames later
+ *   S<v>   servo value v (0..65535): the HAL's spindle_write, then its
+ *          tool_write (pen down at v; up for 0), "ok" three servo frames later
  *   X<n>   n steps on X, positive direction, one every 500 us from the HAL
  *          step timer (10 us pulses), "ok" when the last one is done
  *   other  "ok" at once ($ settings, comments)
@@ -127,7 +127,10 @@ int main(void)
             continue;
         }
         if (n > 1 && line[0] == 'S') {
-            (void)pk_hal_spindle_write(h, (uint16_t)parse_u32(line + 1, (uint8_t)(n - 1u)));
+            /* the pen is the servo: down at the spindle value, up for 0 */
+            uint16_t v = (uint16_t)parse_u32(line + 1, (uint8_t)(n - 1u));
+            (void)pk_hal_spindle_write(h, v);
+            (void)pk_hal_tool_write(h, v != 0u);
             uint64_t until = pk_avr_clock_ticks(&pk_avr_board) + 3u * 41000u; /* 3 frames */
             while (pk_avr_clock_ticks(&pk_avr_board) < until)
                 ;

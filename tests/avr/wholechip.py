@@ -194,6 +194,17 @@ def one_board(board, tmp):
               got['stopped_exact'] == 1 and got['timing_violations'] == 0 and
               any(got['final_steps']) and got['final_steps'] != want['final_steps'],
               (got['final_steps'], got['status_report']))
+    # the pen servo follows M3 S (Grbl's $30 = 1000): down at S250 = a quarter
+    # of the range, up, down at S1000 = the far end, up
+    conf = write(tmp, 'conf', '\n'.join(cfg) + '\n')
+    gc = write(tmp, 'servo.gcode', 'G21\nM3 S250\nG1 X2 F1000\nM5\nM3 S1000\nG1 X0\nM5\n')
+    got, cp = run([PLOTKIN, 'avrsim', hexf, '--board', board, '--config', conf, '--run', gc, '--json'])
+    frame, w0, w1, res = SERVO[board]
+    want_w = [w0, w0 + (w1 - w0) / 4, w0, w1, w0]
+    ws = got['servo']['widths_us'] if got else []
+    check('%s: the pen servo goes down at the M3 S width and up at M5' % board,
+          got is not None and got['status'] == 'finished' and len(ws) == len(want_w) and
+          all(abs(a - b) <= res + 0.2 for a, b in zip(ws, want_w)), (ws, want_w))
     if board in INPUT_BOARDS:
         inputs_and_store(board, tmp, hexf, host, cfg)
 
