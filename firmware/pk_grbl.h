@@ -20,7 +20,10 @@
  *     stay in the 128-byte receive ring (pk_uart) and nothing is lost;
  *   - realtime bytes: '?' '!' '~' 0x18 and every byte >= 0x80 are taken off
  *     the stream by pk_grbl_rt_filter (in the receive ISR; if one reaches the
- *     line stream it is handled the same way): 0x84 door (no door input:
+ *     line stream it is handled the same way — but a held, locked or sleeping
+ *     engine reads no line bytes, so an integration must pass realtime bytes
+ *     through pk_grbl_rt_filter for '~' and ctrl-X to reach it then, as
+ *     pk_app, serve and the simulators do): 0x84 door (no door input:
  *     a feed hold and a message), 0x85 jog cancel, 0x90-0x97 feed and rapid overrides, 0x99-0x9E
  *     spindle overrides, 0xA0/0xA1 coolant toggles, anything else discarded
  *     (cncjs sends 0x91 as UTF-8 C2 91: the C2 vanishes). Each realtime

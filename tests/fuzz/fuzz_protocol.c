@@ -300,8 +300,16 @@ static unsigned drain(void)
             else /* the rebuilt engine reads no input while held: '~' would queue behind it */
                 (void)pk_grbl_rt_filter(&G, '~');
         }
-        if (spins == 50000u && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP))
-            isr_byte(0x18); /* locked (a soft limit, $SLP): only a reset goes on */
+        if (spins == 50000u && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP)) {
+            /* locked (a soft limit, $SLP): only a reset goes on. Without the
+             * filter it must come out of band too: a locked engine reads no
+             * input (pk_grbl.h), so a ctrl-X behind unread bytes would wait
+             * for ever (finding P1, campaign of 2026-12-01: 5,984,017 runs) */
+            if (U.filter)
+                isr_byte(0x18);
+            else
+                (void)pk_grbl_rt_filter(&G, 0x18);
+        }
         poll_engine();
         m_run(8);
         if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u)

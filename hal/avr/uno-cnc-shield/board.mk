@@ -9,9 +9,11 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # Two axes + pen. Smoothing in the tolerance mode only (PK_STROKE_FIXED=0:
 # \$200=1 is refused), whose kernel is Chaikin with clamped ends on open
 # strokes at PK_STROKE_TOL_DEPTH = 3 levels: the kernel's Chaikin-only build
-# (pk_refine_chaikin.c), no limit stage. PK_MAX_DEPTH stays 6 (64-bit working
-# values): at PK_MAX_DEPTH <= 5 (32-bit values) a smoothed program of four
-# feed moves stalls the machine (tests/extra/board_refusals.sh runs one).
+# (pk_refine_chaikin.c), no limit stage, PK_MAX_DEPTH=5: 32-bit working
+# values (the tolerance mode needs 3 levels; 5 leaves headroom). It once
+# stalled the machine: pk_motion.c saw another struct pk_refine layout than
+# the kernel (pk_refine_build.h fixed it; tests/extra/board_refusals.sh runs
+# the four-move program that stalled).
 # No G2/G3 arcs, no G5/G5.1 (error:20), Grbl's 79-byte line buffer of the
 # ATmega328P (a longer line is error:11) and its output staging; short
 # queues: see the size table of `make firmware`.
@@ -19,7 +21,7 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # step generator keeps its own pulse-ending path out of the step interrupt.
 # PK_FLASH_FIRST=1 (pk_munits.h): the chunk preparation's 64-bit helpers stay
 # out of line although pk_stepgen.c is compiled for speed (BOARD_HOT_SRC).
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=6 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=5 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0 -DPK_BUILD_G5=0 -DPK_BUILD_ARCS=0 \
