@@ -156,27 +156,22 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
     return PK_GC_OK;
 }
 
+/* The value word of a letter, -1 for none: range checks on the runs of the
+ * enum (a switch becomes a lookup table that avr-gcc copies to RAM, and a
+ * table in program memory costs ~5 cycles a word more on the AVR). */
+_Static_assert(PK_GC_W_F == 0 && PK_GC_W_J == PK_GC_W_I + 1 && PK_GC_W_L == PK_GC_W_I + 3 &&
+               PK_GC_W_T == PK_GC_W_P + 4 && PK_GC_W_Z == PK_GC_W_X + 2, "word runs I-L, P-T, X-Z");
 static int word_index(int letter)
 {
-    switch (letter) {
-    case 'F': return PK_GC_W_F;
-    case 'I': return PK_GC_W_I;
-    case 'J': return PK_GC_W_J;
-    case 'K': return PK_GC_W_K;
-    case 'L': return PK_GC_W_L;
-    case 'N': return PK_GC_W_N;
-    case 'P': return PK_GC_W_P;
-    case 'Q': return PK_GC_W_Q;
-    case 'R': return PK_GC_W_R;
-    case 'S': return PK_GC_W_S;
-    case 'T': return PK_GC_W_T;
-    case 'X': return PK_GC_W_X;
-    case 'Y': return PK_GC_W_Y;
-#if PK_GC_AXES >= 3
-    case 'Z': return PK_GC_W_Z;
-#endif
-    default: return -1;
-    }
+    if (letter >= 'P' && letter <= 'T')
+        return PK_GC_W_P + (letter - 'P');
+    if (letter >= 'X' && letter <= (PK_GC_AXES >= 3 ? 'Z' : 'Y'))
+        return PK_GC_W_X + (letter - 'X');
+    if (letter >= 'I' && letter <= 'L')
+        return PK_GC_W_I + (letter - 'I');
+    if (letter == 'F')
+        return PK_GC_W_F;
+    return letter == 'N' ? PK_GC_W_N : -1;
 }
 
 /* Grbl's int_value (trunc) and mantissa (round(100 * fraction)) of a G/M
@@ -220,6 +215,11 @@ static int axis_command(struct pk_gc_block *b, uint8_t kind)
     return PK_GC_OK;
 }
 
+/* The G numbers Grbl's switch knows, bit n of byte n / 8 (G0-G5 G10 G17-G21
+ * G28 G30 G38 G40 G43 G49 G53-G59 G61 G64 G80 G90-G94), in program memory. */
+static const uint8_t g_codes[12] PK_ROM = { 0x3fu, 0x04u, 0x3eu, 0x50u, 0x40u, 0x09u,
+                                              0xe2u, 0x2fu, 0x01u, 0x00u, 0x01u, 0x7cu };
+
 /* Grbl keeps a G/M number in a uint8 (trunc) and the fraction times 100 in
  * a uint16: a negative or > 255 value wraps to another code with a non-zero
  * "mantissa". Its answer: error 23 where the wrapped code exists, else 20. */
@@ -229,15 +229,8 @@ static int code_wrapped(int32_t m, uint8_t dec, int is_g)
     uint32_t w = (uint32_t)t & 0xffu;
     if (!is_g)
         return PK_GC_E_NOT_INTEGER;
-    switch (w) {
-    case 0: case 1: case 2: case 3: case 4: case 5: case 10: case 17: case 18: case 19: case 20:
-    case 21: case 28: case 30: case 38: case 40: case 43: case 49: case 53: case 54: case 55:
-    case 56: case 57: case 58: case 59: case 61: case 64: case 80: case 90: case 91: case 92:
-    case 93: case 94:
-        return PK_GC_E_NOT_INTEGER;
-    default:
-        return PK_GC_E_UNSUPPORTED;
-    }
+    return w < 8u * sizeof g_codes && (pk_rom_u8(&g_codes[w >> 3]) >> (w & 7u)) & 1u
+               ? PK_GC_E_NOT_INTEGER : PK_GC_E_UNSUPPORTED;
 }
 
 /* A G word (Grbl's switch, plus G5/G5.1 and G64). */
@@ -500,12 +493,31 @@ static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
 
 #define TLO_AXIS 2
 
+/* A word's value in µm (length units), in thousandths, and a stored
+ * coordinate set: one call each where the block is read (smaller code on a
+ * small part than the field loads at every call). */
+static int word_um(const struct pk_gc_block *b, int w, uint8_t units, int32_t *out)
+{
+    return pk_gcode_len_um(b->m[w], b->dec[w], units, out);
+}
+
+static int word_milli(const struct pk_gc_block *b, int w, int32_t *out)
+{
+    return pk_gcode_scaled(b->m[w], b->dec[w], 3, out);
+}
+
+static int coord_get(const struct pk_gc_env *env, unsigned idx, int32_t out[PK_GC_AXES])
+{
+    return env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, idx, out) != 0 ? -1 : 0;
+}
+
 /* Truncated integer value of a word (Grbl's int_value). */
 static uint32_t word_uint(const struct pk_gc_block *b, int w)
 {
     return b->m[w] < 0 ? 0u : (uint32_t)b->m[w] / pk_rom_u32(&pow10_tab[b->dec[w]]);
 }
 
+#if PK_BUILD_G5
 /* G5 / G5.1 control points (plotkin; LinuxCNC's rules). */
 static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b, uint8_t motion,
                        uint8_t units, uint8_t plane, const int32_t start[2],
@@ -516,9 +528,9 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
     int32_t ij[2] = { 0, 0 };
     if (plane != PK_GC_PLANE_XY || has(b, PK_GC_W_Z))
         return PK_GC_E_BAD_TARGET; /* LinuxCNC: X and Y only, in G17 */
-    if (hi && pk_gcode_len_um(b->m[PK_GC_W_I], b->dec[PK_GC_W_I], units, &ij[0]) != PK_GC_OK)
+    if (hi && word_um(b, PK_GC_W_I, units, &ij[0]) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
-    if (hj && pk_gcode_len_um(b->m[PK_GC_W_J], b->dec[PK_GC_W_J], units, &ij[1]) != PK_GC_OK)
+    if (hj && word_um(b, PK_GC_W_J, units, &ij[1]) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
     *used |= PK_GC_WBIT(PK_GC_W_I) | PK_GC_WBIT(PK_GC_W_J);
     int64_t c[2][2];
@@ -536,8 +548,8 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
             ij[0] = -st->prev_pq_um[0];
             ij[1] = -st->prev_pq_um[1];
         }
-        if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &pq_out[0]) != PK_GC_OK ||
-            pk_gcode_len_um(b->m[PK_GC_W_Q], b->dec[PK_GC_W_Q], units, &pq_out[1]) != PK_GC_OK)
+        if (word_um(b, PK_GC_W_P, units, &pq_out[0]) != PK_GC_OK ||
+            word_um(b, PK_GC_W_Q, units, &pq_out[1]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
         *used |= PK_GC_WBIT(PK_GC_W_P) | PK_GC_WBIT(PK_GC_W_Q);
         for (int a = 0; a < 2; a++) {
@@ -559,6 +571,7 @@ static int spline_ctrl(const struct pk_gc_state *st, const struct pk_gc_block *b
     }
     return PK_GC_OK;
 }
+#endif
 
 /* Length of a straight move, µm (rounded up), for G93. */
 static uint32_t move_len(const int32_t a[PK_GC_AXES], const int32_t b[PK_GC_AXES])
@@ -572,6 +585,7 @@ static uint32_t move_len(const int32_t a[PK_GC_AXES], const int32_t b[PK_GC_AXES
     return (uint32_t)(r * r < s ? r + 1u : r);
 }
 
+#if PK_BUILD_ARCS || PK_BUILD_G5
 /* The chord tolerance of arcs and G5 (lead's rule): a quarter of the path
  * tolerance in G64, min($12, 2 µm) in G61. */
 static pk_um_t chord_tol(uint8_t path, pk_um_t tol_um, pk_um_t dflt)
@@ -582,6 +596,7 @@ static pk_um_t chord_tol(uint8_t path, pk_um_t tol_um, pk_um_t dflt)
     p /= 4;
     return p < 1 ? 1 : p;
 }
+#endif
 
 static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                   const struct pk_gc_env *env, int jog, struct pk_gc_state *n,
@@ -613,7 +628,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         path_tol = 0;
         if (b->path == PK_GC_PATH_BLEND && has(b, PK_GC_W_P)) {
             int32_t t;
-            if (pk_gcode_len_um(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], units, &t) != PK_GC_OK ||
+            if (word_um(b, PK_GC_W_P, units, &t) != PK_GC_OK ||
                 t > 10000)
                 return PK_GC_E_BAD_NUMBER; /* the smoother's range: 0..10 mm */
             path_tol = t;
@@ -624,7 +639,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         feedmode = PK_GC_UNITS_PER_MIN;
     }
     uint16_t axis_words = words & PK_GC_AXIS_WORDS;
+#if PK_BUILD_ARCS || PK_BUILD_G5
     int rc;
+#endif
 
     /* [0] implicit motion command */
     if (axis_words && axis_cmd == PK_GC_AXCMD_NONE)
@@ -642,18 +659,18 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     if (jog) {
         if (!has(b, PK_GC_W_F))
             return PK_GC_E_UNDEFINED_FEED;
-        if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+        if (word_um(b, PK_GC_W_F, units, &f) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     } else if (feedmode == PK_GC_INVERSE_TIME) {
         if (axis_cmd == PK_GC_AXCMD_MOTION && motion != PK_GC_MOT_NONE &&
             motion != PK_GC_MOT_RAPID && !has(b, PK_GC_W_F))
             return PK_GC_E_UNDEFINED_FEED;
         if (has(b, PK_GC_W_F) &&
-            pk_gcode_scaled(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], 3, &f) != PK_GC_OK)
+            word_milli(b, PK_GC_W_F, &f) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER; /* 1/min, in thousandths */
     } else {
         if (has(b, PK_GC_W_F)) {
-            if (pk_gcode_len_um(b->m[PK_GC_W_F], b->dec[PK_GC_W_F], units, &f) != PK_GC_OK)
+            if (word_um(b, PK_GC_W_F, units, &f) != PK_GC_OK)
                 return PK_GC_E_BAD_NUMBER;
         } else if (st->feedmode == PK_GC_UNITS_PER_MIN) {
             f = st->feed;
@@ -663,7 +680,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         return PK_GC_E_BAD_NUMBER;
     /* [4. Set spindle speed] */
     int32_t s = st->spindle_s;
-    if (has(b, PK_GC_W_S) && pk_gcode_scaled(b->m[PK_GC_W_S], b->dec[PK_GC_W_S], 3, &s) != PK_GC_OK)
+    if (has(b, PK_GC_W_S) && word_milli(b, PK_GC_W_S, &s) != PK_GC_OK)
         return PK_GC_E_BAD_NUMBER;
     /* [9. Override control] M56 P0 disables parking, M56 (P1) enables it */
     uint16_t used = 0;
@@ -682,24 +699,26 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             return PK_GC_E_VALUE_MISSING;
         used |= PK_GC_WBIT(PK_GC_W_P);
         int32_t ms;
-        if (pk_gcode_scaled(b->m[PK_GC_W_P], b->dec[PK_GC_W_P], 3, &ms) != PK_GC_OK ||
+        if (word_milli(b, PK_GC_W_P, &ms) != PK_GC_OK ||
             (uint32_t)ms > PK_GC_DWELL_MAX_MS)
             return PK_GC_E_BAD_NUMBER;
         cmd->dwell_ms = (uint32_t)ms;
     }
-    /* [11. Set active plane] */
+    /* [11. Set active plane] (its axes serve the arcs only) */
+#if PK_BUILD_ARCS
     uint8_t ax0, ax1, axl;
     switch (plane) {
     case PK_GC_PLANE_ZX: ax0 = 2; ax1 = 0; axl = 1; break;
     case PK_GC_PLANE_YZ: ax0 = 1; ax1 = 2; axl = 0; break;
     default: ax0 = 0; ax1 = 1; axl = PK_GC_AXES >= 3 ? 2 : PK_GC_AXES; break;
     }
+#endif
     /* [12. Set length units] axis words to µm */
     int32_t xyz[PK_GC_AXES];
     for (int a = 0; a < PK_GC_AXES; a++) {
         xyz[a] = 0;
         if (has(b, PK_GC_W_X + a) &&
-            pk_gcode_len_um(b->m[PK_GC_W_X + a], b->dec[PK_GC_W_X + a], units, &xyz[a]) != PK_GC_OK)
+            word_um(b, PK_GC_W_X + a, units, &xyz[a]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     }
     /* [14. Cutter length compensation] G43.1: Z only */
@@ -714,7 +733,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     int32_t wcs_um[PK_GC_AXES];
     memcpy(wcs_um, st->wcs_um, sizeof wcs_um);
     if ((b->groups & PK_GC_GBIT(PK_GC_G_WCS)) && wcs != st->wcs) {
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, wcs, wcs_um) != 0)
+        if (coord_get(env, wcs, wcs_um) != 0)
             return PK_GC_E_READ_FAIL;
     }
     /* [19. Remaining non-modal actions] */
@@ -735,7 +754,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             return PK_GC_E_UNSUPPORTED;
         used |= PK_GC_WBIT(PK_GC_W_L) | PK_GC_WBIT(PK_GC_W_P);
         coord_idx = p > 0u ? (uint8_t)(p - 1u) : wcs;
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, coord_idx, coord) != 0)
+        if (coord_get(env, coord_idx, coord) != 0)
             return PK_GC_E_READ_FAIL;
         for (int a = 0; a < PK_GC_AXES; a++) {
             if (!has(b, PK_GC_W_X + a))
@@ -794,7 +813,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         }
         if (nonmodal == PK_GC_NM_HOME0 || nonmodal == PK_GC_NM_HOME1) {
             unsigned idx = nonmodal == PK_GC_NM_HOME0 ? PK_GC_COORD_G28 : PK_GC_COORD_G30;
-            if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, idx, coord) != 0)
+            if (coord_get(env, idx, coord) != 0)
                 return PK_GC_E_READ_FAIL;
             if (axis_words) {
                 for (int a = 0; a < PK_GC_AXES; a++)
@@ -830,8 +849,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 break;
             case PK_GC_MOT_CW_ARC:
             case PK_GC_MOT_CCW_ARC: {
-                if (!PK_BUILD_ARCS)
-                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#if !PK_BUILD_ARCS
+                return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#else
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
                 if (!(axis_words & (PK_GC_WBIT(PK_GC_W_X + ax0) | PK_GC_WBIT(PK_GC_W_X + ax1))))
@@ -849,7 +869,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     if (memcmp(st->pos_um, target, sizeof target) == 0)
                         return PK_GC_E_BAD_TARGET;
                     int32_t r;
-                    if (pk_gcode_len_um(b->m[PK_GC_W_R], b->dec[PK_GC_W_R], units, &r) != PK_GC_OK ||
+                    if (word_um(b, PK_GC_W_R, units, &r) != PK_GC_OK ||
                         r > (INT32_C(1) << 30) || r < -(INT32_C(1) << 30))
                         return PK_GC_E_BAD_TARGET;
                     rc = pk_arc_centre_r(&g, r);
@@ -861,7 +881,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     int32_t o[2] = { 0, 0 };
                     for (int k = 0; k < 2; k++) {
                         int w = PK_GC_W_I + (k == 0 ? ax0 : ax1);
-                        if (has(b, w) && pk_gcode_len_um(b->m[w], b->dec[w], units, &o[k]) != PK_GC_OK)
+                        if (has(b, w) && word_um(b, w, units, &o[k]) != PK_GC_OK)
                             return PK_GC_E_BAD_TARGET;
                     }
                     rc = pk_arc_centre_ijk(&g, o[0], o[1]);
@@ -877,11 +897,13 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                     if (!in_range(lo[a]) || !in_range(hi[a]))
                         return PK_GC_E_TRAVEL;
                 break;
+#endif
             }
             case PK_GC_MOT_CUBIC:
             case PK_GC_MOT_QUAD:
-                if (!PK_BUILD_G5)
-                    return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#if !PK_BUILD_G5
+                return PK_GC_E_UNSUPPORTED; /* g_word refused it already */
+#else
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
             {
@@ -894,6 +916,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                             cmd->chord_tol_um);
                 break;
             }
+#endif
             default: /* probes */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
@@ -922,8 +945,12 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     pk_gc_umpm_t move_feed = f;
     if (feed_move && feedmode == PK_GC_INVERSE_TIME && !jog) {
         /* G93: the move takes 1/F minutes: feed = length * F */
-        uint32_t len = (PK_BUILD_ARCS && (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC))
+#if PK_BUILD_ARCS
+        uint32_t len = (motion == PK_GC_MOT_CW_ARC || motion == PK_GC_MOT_CCW_ARC)
                            ? pk_arc_length_um(&cmd->u.arc) : move_len(st->pos_um, target);
+#else
+        uint32_t len = move_len(st->pos_um, target);
+#endif
         if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
             return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */
         uint64_t v = ((uint64_t)len * (uint64_t)f + 999u) / 1000u;
@@ -954,7 +981,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     pk_um_t g54_um[PK_GC_AXES];
     if ((b->groups & PK_GC_GBIT(PK_GC_G_STOP)) && b->stop != PK_GC_STOP_OPTIONAL &&
         b->stop != PK_GC_STOP_PAUSE && wcs != 0) {
-        if (env == NULL || env->coord_read == NULL || env->coord_read(env->ctx, 0, g54_um) != 0)
+        if (coord_get(env, 0, g54_um) != 0)
             return PK_GC_E_READ_FAIL;
     }
 

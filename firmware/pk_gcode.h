@@ -329,10 +329,15 @@ struct pk_gc_cmd {
     pk_um_t via_um[PK_GC_AXES];         /**< with DO_VIA */
     pk_um_t start_um[PK_GC_AXES];       /**< with DO_MOVE: where the move starts */
     pk_um_t target_um[PK_GC_AXES];      /**< with DO_MOVE: where it ends */
-    union {
+    union { /* only the curves this build has: 117 B of RAM on an AVR without arcs */
+#if PK_BUILD_ARCS
         struct pk_arc arc;              /**< G2/G3: planned (pk_arc_next gives the chords) */
+#endif
+#if PK_BUILD_G5
         struct pk_bez bez;              /**< G5/G5.1: ready (pk_bez_next); control points
                                              in bez.p[0..3] (G5.1: 0..2) */
+#endif
+        uint8_t none;                   /**< a build without arcs and G5: unused */
     } u;
     int32_t line_number;                /**< N, or -1 */
 };

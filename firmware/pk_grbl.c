@@ -20,6 +20,13 @@
  */
 #include "pk_grbl_internal.h"
 
+/* A counter of pk_grbl.stats (PK_GRBL_STATS; else nothing). */
+#if PK_GRBL_STATS
+#define STAT_INC(g, field) ((g)->stats.field++)
+#else
+#define STAT_INC(g, field) ((void)(g))
+#endif
+
 #include <string.h>
 
 /* line_flags */
@@ -66,7 +73,7 @@ static int gstate(const struct pk_grbl *g)
 static void answer(struct pk_grbl *g, int status)
 {
     if (!g->line_src) /* answers to the stream's lines only */
-        g->stats.lines++;
+        STAT_INC(g, lines);
     if (g->line_src) { /* a startup line: ">line:ok" */
         uint8_t buf[PK_GRBL_LINE_MAX];
         unsigned n = pk_grbl_nvm_line_read(g, g->line_src - 1u, buf);
@@ -76,11 +83,11 @@ static void answer(struct pk_grbl *g, int status)
     }
     if (status == 0) {
         if (!g->line_src)
-            g->stats.ok++;
+            STAT_INC(g, ok);
         PK_GRBL_PUTS(g, "ok\r\n");
     } else {
         if (!g->line_src)
-            g->stats.errors++;
+            STAT_INC(g, errors);
         PK_GRBL_PUTS(g, "error:");
         pk_grbl_put_u32(g, (uint32_t)status);
         PK_GRBL_PUTS(g, "\r\n");
@@ -325,20 +332,12 @@ static int soft_ok(const struct pk_grbl *g, const pk_um_t t[PK_GC_AXES])
  * $31..$30 onto the smallest..full output, 0 for S0 (Q0.16). */
 static uint16_t spindle_q16(const struct pk_grbl *g, int32_t s_milli)
 {
-    /* 32-bit only (it runs per move in laser mode): s_milli / 100 * 200 and
-     * the remainder term stay below 2^32 for every int32 S */
-    if (s_milli <= 0)
-        return 0;
-    uint32_t ovr = g->ovr_spindle;
-    uint32_t s = (uint32_t)s_milli / 100u * ovr + (uint32_t)s_milli % 100u * ovr / 100u;
+    uint32_t s;
+    int k = pk_grbl_spindle_span(g, s_milli, &s);
+    if (k != PK_GRBL_SPAN_INSIDE)
+        return k == PK_GRBL_SPAN_ZERO ? 0u : k == PK_GRBL_SPAN_MAX ? 65535u : 1u;
     uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX];
     uint32_t mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
-    if (s == 0)
-        return 0;
-    if (mn >= mx || s >= mx)
-        return 65535u;
-    if (s <= mn)
-        return 1u;
     /* 1 + floor(x * 65534 / d), x = s - mn < d = mx - mn < 2^31: the long
      * division gives q = floor(x * 2^16 / d) and its remainder; then
      * x * 65534 = q * d + rem - 2x takes off 0, 1 or 2 */
@@ -411,9 +410,17 @@ static uint16_t laser_value(const struct pk_grbl *g, int laser_off)
     return spindle_q16(g, g->gc.spindle_s);
 }
 
+/* The primitive to the observer (PK_GRBL_OBSERVER; else nothing). */
 static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_AXES],
                     const pk_um_t end[PK_GC_AXES])
 {
+#if !PK_GRBL_OBSERVER
+    (void)g;
+    (void)kind;
+    (void)start;
+    (void)end;
+}
+#else
     if (!g->obs || g->check_mode)
         return;
     const struct pk_gc_cmd *c = &g->cmd;
@@ -432,7 +439,8 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
     p.chord_tol_um = c->chord_tol_um;
     memcpy(p.start, start, sizeof p.start);
     memcpy(p.end, end, sizeof p.end);
-    if (PK_BUILD_ARCS && kind == PK_GRBL_PRIM_ARC) {
+#if PK_BUILD_ARCS
+    if (kind == PK_GRBL_PRIM_ARC) {
         const struct pk_arc *a = &c->u.arc;
         p.centre_q8[0] = a->g.centre_q8[0];
         p.centre_q8[1] = a->g.centre_q8[1];
@@ -443,13 +451,18 @@ static void observe(struct pk_grbl *g, uint8_t kind, const pk_um_t start[PK_GC_A
         p.sweep = a->sweep;
         p.r0_q8 = a->r0_q8;
         p.r1_q8 = a->r1_q8;
-    } else if (PK_BUILD_G5 && (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD)) {
+    }
+#endif
+#if PK_BUILD_G5
+    if (kind == PK_GRBL_PRIM_CUBIC || kind == PK_GRBL_PRIM_QUAD) {
         for (int k = 0; k < 2; k++)
             for (int a = 0; a < 2; a++)
                 p.ctrl[k][a] = c->u.bez.p[1 + k][a];
     }
+#endif
     g->obs(g->obs_ctx, &p);
 }
+#endif
 
 /* ---- executing an accepted command --------------------------------------------- */
 
@@ -509,7 +522,7 @@ static int do_line(struct pk_grbl *g, const pk_um_t t[PK_GC_AXES], pk_gc_umpm_t 
         return ADV_SOFTLIMIT;
     int r = op_rc(rc);
     if (r == 1)
-        g->stats.moves++;
+        STAT_INC(g, moves);
     return r;
 }
 
@@ -520,18 +533,22 @@ static int do_curve(struct pk_grbl *g)
     int is_arc = c->motion == PK_GC_MOT_CW_ARC || c->motion == PK_GC_MOT_CCW_ARC;
     for (int budget = CHORDS_PER_POLL; budget > 0; budget--) {
         if (!g->pt_held) {
-            if (!(is_arc ? PK_BUILD_ARCS : PK_BUILD_G5)) {
-                return 1; /* not built: pk_gcode_interp refuses it */
-            } else if (is_arc) {
+            if (is_arc) {
+#if PK_BUILD_ARCS
                 if (!pk_arc_next(&c->u.arc, g->pt))
-                    return 1;
+#endif
+                    return 1; /* (not built: pk_gcode_interp refuses it) */
             } else {
+#if PK_BUILD_G5
                 pk_um_t xy[2];
                 if (!pk_bez_next(&c->u.bez, xy))
                     return 1;
                 memcpy(g->pt, c->target_um, sizeof g->pt);
                 g->pt[0] = xy[0];
                 g->pt[1] = xy[1];
+#else
+                return 1; /* not built: pk_gcode_interp refuses it */
+#endif
             }
             g->pt_held = 1;
         }
@@ -636,7 +653,11 @@ static int do_move(struct pk_grbl *g)
         if (g->step == 0) {
             uint8_t kind = c->motion == PK_GC_MOT_CUBIC ? PK_GRBL_PRIM_CUBIC
                            : c->motion == PK_GC_MOT_QUAD ? PK_GRBL_PRIM_QUAD
-                           : !PK_BUILD_ARCS || c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
+#if PK_BUILD_ARCS
+                           : c->u.arc.g.straight ? PK_GRBL_PRIM_LINE : PK_GRBL_PRIM_ARC;
+#else
+                           : PK_GRBL_PRIM_LINE;
+#endif
             observe(g, kind, c->start_um, c->target_um);
             g->step = 1;
             g->pt_held = 0;
@@ -1212,7 +1233,7 @@ static void soft_reset(struct pk_grbl *g)
     g->owed = 0;
     g->home_ok_due = 0;
     int cut = g->mo.reset(g->m);
-    g->stats.resets++;
+    STAT_INC(g, resets);
     g->len = 0;
     g->line_flags = 0;
     g->last_cr = 0;
@@ -1343,11 +1364,13 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
     return 0;
 }
 
+#if PK_GRBL_OBSERVER
 void pk_grbl_set_observer(struct pk_grbl *g, pk_grbl_observer_fn fn, void *ctx)
 {
     g->obs = fn;
     g->obs_ctx = ctx;
 }
+#endif
 
 int pk_grbl_idle(const struct pk_grbl *g)
 {
@@ -1514,7 +1537,7 @@ void pk_grbl_poll(struct pk_grbl *g)
         uint8_t b;
         int n = g->io.read(g->io.ctx, &b, 1);
         if (n < 0) {
-            g->stats.rx_lost++;
+            STAT_INC(g, rx_lost);
             g->line_flags |= LF_LOST;
             continue;
         }

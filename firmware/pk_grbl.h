@@ -96,6 +96,30 @@
 #define PK_GRBL_INPUTS 0
 #endif
 #endif
+/** Build knob: 1 the engine reports every programmed primitive to an
+ *  observer (pk_grbl_set_observer: the simulators' SVG and trace); 0 leaves
+ *  the observer out (about 0.55 KB of flash on AVR, 4 B of RAM), and
+ *  pk_grbl_set_observer is then not declared, so a caller fails to build.
+ *  Default: 1 in a hosted build, 0 in a board image (freestanding). */
+#ifndef PK_GRBL_OBSERVER
+#if defined(__STDC_HOSTED__) && __STDC_HOSTED__
+#define PK_GRBL_OBSERVER 1
+#else
+#define PK_GRBL_OBSERVER 0
+#endif
+#endif
+/** Build knob: 1 the engine counts lines, answers, resets, moves and
+ *  receive overflows (struct pk_grbl_stats: the simulators' and the board
+ *  binary's summaries); 0 leaves the counters out (24 B of RAM and about
+ *  0.3 KB of flash on AVR), and pk_grbl.stats is then not a member, so a
+ *  reader fails to build. Default: 1 in a hosted build, 0 in a board image. */
+#ifndef PK_GRBL_STATS
+#if defined(__STDC_HOSTED__) && __STDC_HOSTED__
+#define PK_GRBL_STATS 1
+#else
+#define PK_GRBL_STATS 0
+#endif
+#endif
 /** Startup lines ($N0, $N1), as Grbl. */
 #define PK_GRBL_N_STARTUP 2u
 /** Receive buffer size advertised to character-counting senders ($I, Bf). */
@@ -405,11 +429,15 @@ struct pk_grbl {
     struct pk_grbl_machine_ops mo;  /* copied at init */
     void *m;
     struct pk_grbl_nvm nvm;         /* size 0: none */
+#if PK_GRBL_OBSERVER
     pk_grbl_observer_fn obs;
     void *obs_ctx;
+#endif
     struct pk_grbl_settings set;
     struct pk_gc_state gc;
+#if PK_GRBL_STATS
     struct pk_grbl_stats stats;
+#endif
     /* realtime flags: one byte each, the ISR writes 1, MAIN writes 0 */
     volatile uint8_t rt[PK_GRBL_RT_COUNT];
     /* line assembly */
@@ -467,8 +495,10 @@ int pk_grbl_init(struct pk_grbl *g, const struct pk_grbl_stream *io,
                  const struct pk_grbl_machine_ops *mo, void *m,
                  const struct pk_grbl_settings *set, const struct pk_grbl_nvm *nvm);
 
+#if PK_GRBL_OBSERVER
 /** [MAIN] Install (or remove, fn = NULL) the motion observer. */
 void pk_grbl_set_observer(struct pk_grbl *g, pk_grbl_observer_fn fn, void *ctx);
+#endif
 
 /**
  * [ISR] Realtime filter for pk_uart (signature of pk_uart_rt_filter):

@@ -49,6 +49,12 @@ void pk_grbl_status_report(struct pk_grbl *g);
 /** Emit report lines while room allows; 1 when the report is complete. */
 int pk_grbl_report_step(struct pk_grbl *g);
 /** The spindle speed in force for FS: (S * override) clamped to $31..$30, 0 if off. */
+/* S (thousandths) after the spindle override, against the range $31..$30:
+ * SPAN_ZERO (S <= 0, or 0 after the override), SPAN_MAX (at or above $30,
+ * or an empty range), SPAN_MIN (at or below $31), SPAN_INSIDE; *s_out: the
+ * value after the override (not set for S <= 0). */
+enum { PK_GRBL_SPAN_ZERO = 0, PK_GRBL_SPAN_MAX, PK_GRBL_SPAN_MIN, PK_GRBL_SPAN_INSIDE };
+int pk_grbl_spindle_span(const struct pk_grbl *g, int32_t s_milli, uint32_t *s_out);
 int32_t pk_grbl_spindle_rpm_milli(const struct pk_grbl *g);
 
 /* ---- state queries (pk_grbl.c) ---- */

@@ -119,20 +119,34 @@ void pk_grbl_put_rate(struct pk_grbl *g, int32_t um_min)
         pk_grbl_put_fixed(g, div_round(um_min, 1000), 0, 0);
 }
 
+int pk_grbl_spindle_span(const struct pk_grbl *g, int32_t s_milli, uint32_t *s_out)
+{
+    /* 32-bit only (it runs per move in laser mode): s_milli / 100 * 200 and
+     * the remainder term stay below 2^32 for every int32 S */
+    if (s_milli <= 0)
+        return PK_GRBL_SPAN_ZERO;
+    uint32_t sm = (uint32_t)s_milli, ovr = g->ovr_spindle;
+    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u;
+    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    *s_out = s;
+    if (s == 0)
+        return PK_GRBL_SPAN_ZERO;
+    if (mn >= mx || s >= mx)
+        return PK_GRBL_SPAN_MAX;
+    return s <= mn ? PK_GRBL_SPAN_MIN : PK_GRBL_SPAN_INSIDE;
+}
+
 int32_t pk_grbl_spindle_rpm_milli(const struct pk_grbl *g)
 {
-    if (g->gc.spindle == PK_GC_SPINDLE_OFF || g->gc.spindle_s <= 0)
+    if (g->gc.spindle == PK_GC_SPINDLE_OFF)
         return 0;
-    uint32_t sm = (uint32_t)g->gc.spindle_s, ovr = g->ovr_spindle;
-    uint32_t s = sm / 100u * ovr + sm % 100u * ovr / 100u; /* < 2^32 for any int32 S */
-    uint32_t mx = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MAX], mn = (uint32_t)g->set.v[PK_GRBL_S_SPINDLE_MIN];
-    if (s == 0)
-        return 0;
-    if (mn >= mx || s >= mx)
-        return (int32_t)mx;
-    if (s <= mn)
-        return (int32_t)mn;
-    return (int32_t)s;
+    uint32_t s = 0;
+    switch (pk_grbl_spindle_span(g, g->gc.spindle_s, &s)) {
+    case PK_GRBL_SPAN_ZERO: return 0;
+    case PK_GRBL_SPAN_MAX: return g->set.v[PK_GRBL_S_SPINDLE_MAX];
+    case PK_GRBL_SPAN_MIN: return g->set.v[PK_GRBL_S_SPINDLE_MIN];
+    default: return (int32_t)s;
+    }
 }
 
 int pk_grbl_state(const struct pk_grbl *g)
@@ -157,42 +171,42 @@ int pk_grbl_state(const struct pk_grbl *g)
     return PK_GRBL_IDLE;
 }
 
-/* (switches, not tables of pointers: those would be relocated, writable data) */
+/* Names packed in one string in program memory, NUL-separated (a table of
+ * pointers, or a switch that gcc turns into one, would be writable data on
+ * an AVR): the k-th of them, the last one for k past the end. */
+static const char *rom_nth(const char *list, unsigned k, unsigned count)
+{
+    if (k >= count)
+        k = count - 1u;
+    while (k > 0u)
+        if (pk_rom_u8(list++) == 0)
+            k--;
+    return list;
+}
+
+static const char state_names[] PK_ROM = "Idle\0Run\0Hold:0\0Hold:1\0Jog\0Alarm\0Check\0Sleep\0Home";
+_Static_assert(PK_GRBL_IDLE == 0 && PK_GRBL_RUN == 1 && PK_GRBL_HOLD0 == 2 && PK_GRBL_HOLD1 == 3 &&
+               PK_GRBL_JOG == 4 && PK_GRBL_ALARM == 5 && PK_GRBL_CHECK == 6 &&
+               PK_GRBL_SLEEP == 7 && PK_GRBL_HOME == 8, "state_names follows enum pk_grbl_state");
+
 static const char *state_name(struct pk_grbl *g, int *busy)
 {
     int s = pk_grbl_state(g);
     /* Grbl's "busy" states refresh WCO/Ov more slowly */
     *busy = s == PK_GRBL_RUN || s == PK_GRBL_HOLD0 || s == PK_GRBL_HOLD1 || s == PK_GRBL_JOG ||
             s == PK_GRBL_HOME;
-    switch (s) {
-    case PK_GRBL_RUN: return PK_ROM_STR("Run");
-    case PK_GRBL_HOLD0: return PK_ROM_STR("Hold:0");
-    case PK_GRBL_HOLD1: return PK_ROM_STR("Hold:1");
-    case PK_GRBL_JOG: return PK_ROM_STR("Jog");
-    case PK_GRBL_ALARM: return PK_ROM_STR("Alarm");
-    case PK_GRBL_CHECK: return PK_ROM_STR("Check");
-    case PK_GRBL_SLEEP: return PK_ROM_STR("Sleep");
-    case PK_GRBL_HOME: return PK_ROM_STR("Home");
-    default: return PK_ROM_STR("Idle");
-    }
+    return rom_nth(state_names, s < 0 || s > PK_GRBL_HOME ? 0u : (unsigned)s, 9u);
 }
 
-static const char *motion_word(uint8_t m)
-{
-    switch (m) {
-    case PK_GC_MOT_RAPID: return PK_ROM_STR("G0");
-    case PK_GC_MOT_LINEAR: return PK_ROM_STR("G1");
-    case PK_GC_MOT_CW_ARC: return PK_ROM_STR("G2");
-    case PK_GC_MOT_CCW_ARC: return PK_ROM_STR("G3");
-    case PK_GC_MOT_CUBIC: return PK_ROM_STR("G5");
-    case PK_GC_MOT_QUAD: return PK_ROM_STR("G5.1");
-    case PK_GC_MOT_PROBE_TOWARD: return PK_ROM_STR("G38.2");
-    case PK_GC_MOT_PROBE_TOWARD_NO_ERROR: return PK_ROM_STR("G38.3");
-    case PK_GC_MOT_PROBE_AWAY: return PK_ROM_STR("G38.4");
-    case PK_GC_MOT_PROBE_AWAY_NO_ERROR: return PK_ROM_STR("G38.5");
-    default: return PK_ROM_STR("G80");
-    }
-}
+/* G0 .. G38.5 by enum pk_gc_motion, then G80 (PK_GC_MOT_NONE and anything after) */
+static const char motion_words[] PK_ROM = "G0\0G1\0G2\0G3\0G5\0G5.1\0G38.2\0G38.3\0G38.4\0G38.5\0G80";
+_Static_assert(PK_GC_MOT_RAPID == 0 && PK_GC_MOT_LINEAR == 1 && PK_GC_MOT_CW_ARC == 2 &&
+               PK_GC_MOT_CCW_ARC == 3 && PK_GC_MOT_CUBIC == 4 && PK_GC_MOT_QUAD == 5 &&
+               PK_GC_MOT_PROBE_TOWARD == 6 && PK_GC_MOT_PROBE_TOWARD_NO_ERROR == 7 &&
+               PK_GC_MOT_PROBE_AWAY == 8 && PK_GC_MOT_PROBE_AWAY_NO_ERROR == 9,
+               "motion_words follows enum pk_gc_motion");
+
+static const char *motion_word(uint8_t m) { return rom_nth(motion_words, m, 11u); }
 
 void pk_grbl_status_report(struct pk_grbl *g)
 {

@@ -312,8 +312,19 @@ static unsigned drain(void)
         }
         poll_engine();
         m_run(8);
-        if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u)
+        if (pk_grbl_idle(&G) && U.head == U.tail && !U.lost && M.q == 0u) {
+            /* locked by a critical alarm with the line that tripped it owed
+             * its "ok" until a reset (Grbl): the operator resets, out of
+             * band (finding P2: drained "idle" with that answer missing) */
+            if (G.owed && (pk_grbl_state(&G) == PK_GRBL_ALARM || pk_grbl_state(&G) == PK_GRBL_SLEEP)) {
+                if (U.filter)
+                    isr_byte(0x18);
+                else
+                    (void)pk_grbl_rt_filter(&G, 0x18);
+                continue;
+            }
             break;
+        }
     }
     return spins;
 }
