@@ -635,8 +635,13 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     for (unsigned i = 0; i < axes; i++)
         d_um[i] = p[i] - m->target_um[i];
     uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
-    if (m->sg.prep_active && pk_mq_count(&m->mq) == 1u)
-        flags |= PK_PLAN_PREV_LOCKED;   /* the only queued block is being cut */
+    /* The only queued block is being cut, or the machine is moving and that
+     * block is next: its entry speed is already committed (the exit of what
+     * was taken, planned with this block's acceleration), so its
+     * acceleration must not drop (finding M7: a turn after it halved it,
+     * and the speed carried through it at 3.9x the next axis's rate). */
+    if ((m->sg.prep_active || m->sg.busy) && pk_mq_count(&m->mq) == 1u)
+        flags |= PK_PLAN_PREV_LOCKED;
     int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, feed, flags);
     if (r < 0)
         return -1;

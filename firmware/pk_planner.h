@@ -107,8 +107,9 @@ enum {
     PK_PLAN_SHARP = 1,      /**< the junction with the previous move is a programmed
                                  corner (Grbl's junction deviation applies); else it is
                                  a vertex of a smoothed curve (velocity jump capped) */
-    PK_PLAN_PREV_LOCKED = 2 /**< the previous block is being cut into chunks: its
-                                 acceleration can no longer be changed */
+    PK_PLAN_PREV_LOCKED = 2 /**< the previous block is being cut into chunks, or its
+                                 entry speed is committed (the machine moves and it is
+                                 next): its acceleration can no longer be changed */
 };
 
 /** Append a stop block (PK_BLK_PEN with tool level, PK_BLK_SPINDLE with value
