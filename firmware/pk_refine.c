@@ -458,8 +458,11 @@ int pk_refine_pull(struct pk_refine *r, struct pk_refine_out *out)
     return pull_more(r, out);
 }
 
-int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
-                         uint32_t *got)
+/* The block pull through the general path (limit stage, cascade, depth 0):
+ * point by point. Out of line, so that the fast streams' dispatch below
+ * stays a jump. */
+static PK_NOINLINE int pull_block_general(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
+                                          uint32_t *got)
 {
     uint32_t k = 0;
     int st = PK_OK;
@@ -467,27 +470,16 @@ int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t 
     *got = 0;
     if (max_points == 0u)
         return PK_OK;
-#if PK_HAVE_SPAN
-    if (r->fast) {
-        while (k < max_points) {
-            if (r->e.sp.rem == 0u && (st = pk_span_refill(r)) != PK_SRC_OK)
-                break;
-            k += pk_span_emit_block(r, p + (size_t)k * dims, max_points - k);
+    while (k < max_points) {
+        struct pk_refine_out o;
+        if ((st = pull_one(r, &o)) != PK_OK)
+            break;
+        for (unsigned a = 0; a < dims; a++) {
+            p[(size_t)k * dims + a] = o.p[a];
+            if (t != NULL && r->cfg.tangents)
+                t[(size_t)k * dims + a] = o.t[a];
         }
-    } else
-#endif
-    {
-        while (k < max_points) {
-            struct pk_refine_out o;
-            if ((st = pull_one(r, &o)) != PK_OK)
-                break;
-            for (unsigned a = 0; a < dims; a++) {
-                p[(size_t)k * dims + a] = o.p[a];
-                if (t != NULL && r->cfg.tangents)
-                    t[(size_t)k * dims + a] = o.t[a];
-            }
-            k++;
-        }
+        k++;
     }
     *got = k;
     if (k > 0u)
@@ -495,6 +487,16 @@ int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t 
     if (st == PK_END)
         pk_refine_reset(r);
     return st;
+}
+
+int pk_refine_pull_block(struct pk_refine *r, pk_um_t *p, pk_q30_t *t, uint32_t max_points,
+                         uint32_t *got)
+{
+#if PK_HAVE_SPAN
+    if (r->fast) /* the span engine's own loop (pk_refine_span.c) */
+        return pk_span_pull_block(r, p, max_points, got);
+#endif
+    return pull_block_general(r, p, t, max_points, got);
 }
 
 uint32_t pk_refine_max_release(const struct pk_refine_cfg *cfg)

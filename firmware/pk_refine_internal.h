@@ -59,9 +59,11 @@ void pk_span_setup(struct pk_refine *r);
 int pk_span_refill(struct pk_refine *r);
 /** The next level-K point (exact). @return PK_SRC_OK, PK_SRC_NEED, PK_SRC_END */
 int pk_span_next(struct pk_refine *r, pk_umf_t v[PK_AXES]);
-/** Rounded outputs straight from the current run: up to max points (<= rem),
- *  dims coordinates each, into p. Returns the count written. */
-uint32_t pk_span_emit_block(struct pk_refine *r, pk_um_t *p, uint32_t max);
+/** pk_refine_pull_block for a fast stream (span engine, no limit stage):
+ *  up to max rounded outputs, dims coordinates each, into p, refilling runs
+ *  as it goes; the count in *got. Same answers as pk_refine_pull_block
+ *  (PK_END after the last point, on a call that gave none, and resets). */
+int pk_span_pull_block(struct pk_refine *r, pk_um_t *p, uint32_t max, uint32_t *got);
 #endif
 
 /* ---- the cascade -------------------------------------------------------- */
