@@ -758,10 +758,17 @@ static PK_INLINE void emit_lanes_xy(struct pk_span *sp, pk_um_t *p, uint32_t c, 
     __builtin_memcpy(&B, &sp->s[0][0], 16); /* x and y: two int64 */
     __builtin_memcpy(&A, &sp->s[1][0], 16);
     __builtin_memcpy(&C, &sp->s[2][0], 16);
+    /* the low words (lanes 0 and 2) twice: x y x y */
+#if defined(__clang__)
+    B = __builtin_shufflevector(B, B, 0, 2, 0, 2);
+    A = __builtin_shufflevector(A, A, 0, 2, 0, 2);
+    C = __builtin_shufflevector(C, C, 0, 2, 0, 2);
+#else
     const pk_v4u lo = { 0, 2, 0, 2 };
     B = __builtin_shuffle(B, lo);
     A = __builtin_shuffle(A, lo);
     C = __builtin_shuffle(C, lo);
+#endif
 #else
     const uint32_t vx = (uint32_t)sp->s[0][0], vy = (uint32_t)sp->s[0][1];
     const uint32_t ax = (uint32_t)sp->s[1][0], ay = (uint32_t)sp->s[1][1];
