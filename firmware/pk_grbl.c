@@ -1485,9 +1485,16 @@ void pk_grbl_poll(struct pk_grbl *g)
         /* A machine fault (a HAL write failed): position may be lost, as
          * after a hard limit, hence Grbl's ALARM:1. */
         g->m_alarm_seen = 1;
-        g->alarm = 1;
-        g->mode = MODE_RUN;
         PK_GRBL_PUTS(g, "ALARM:1\r\n");
+        if (g->mode == MODE_SOFTLIMIT || g->mode == MODE_CRITICAL) {
+            /* already on the way to (or in) a critical alarm: that lock
+             * stays, only a reset leaves it, and the line that tripped the
+             * soft limit keeps its answer owed until then (finding P3: this
+             * fault unlocked it and the sender's count lost that line) */
+        } else {
+            g->alarm = 1;
+            g->mode = MODE_RUN;
+        }
         if (g->todo) {
             g->todo = 0;
             g->step = 0;
