@@ -307,10 +307,6 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
                 b->curved = 1;
                 if (b->accel > along)
                     b->accel = along;
-            } else if (a0 != NULL && a0->type == PK_BLK_LINE && !(flags & PK_PLAN_PREV_LOCKED)) {
-                a0->curved = 1;
-                if (a0->accel > along)
-                    a0->accel = along;
             } else {
                 b->curved = 1; /* the shorter one is running already: this one shares */
                 if (b->accel > along)
