@@ -16,6 +16,12 @@ want=()
 for g in "${@:-base}"; do
   [[ -n "${GROUP[$g]:-}" ]] || { echo "deps.sh: unknown group '$g'" >&2; exit 2; }
   for p in ${GROUP[$g]}; do
+    # node and npm may come from outside Debian (a NodeSource or nvm install);
+    # asking apt for them then conflicts, so a working command is enough
+    if [[ $p == nodejs || $p == npm ]]; then
+      cmd=$p; [[ $p == nodejs ]] && cmd=node
+      command -v "$cmd" >/dev/null 2>&1 && continue
+    fi
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || want+=("$p")
   done
 done
