@@ -647,35 +647,66 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         return -1;
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
     b->spindle = m->spindle_q16;
+    /* Each axis's exact start fraction f and distance d, 1/256 steps along
+     * its direction. qa, qb: up to 2^21 µm * 10,000 steps/mm * 256 > 2^32,
+     * but target_steps = round(qa / 256) (the position contract), so |f| <=
+     * 128, and qb - 256 ts = 256 n + (qb - 256 st) is below 2^30 in
+     * magnitude: 32 bits. */
+    int32_t f_ax[PK_AXES] = { 0 }, d_ax[PK_AXES] = { 0 };
+    uint32_t fine = 0; /* events a minor axis needs (below) */
+    for (unsigned i = 0; i < axes; i++) {
+        if (n[i] == 0)
+            continue;
+        int32_t sgn = n[i] > 0 ? 1 : -1;
+        const int32_t fa = q8steps_from(m->target_um[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
+        const int32_t fb = q8steps_from(p[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
+        f_ax[i] = fa * sgn;
+        d_ax[i] = (fb - fa) * sgn;
+        if (d_ax[i] < 0)
+            d_ax[i] = 0;
+        /* Every axis steps at the first event after its exact position
+         * crosses a half step: up to one event late. Across a block boundary
+         * the next block does not know, and steps on time, so one interval
+         * of that axis can be an event short (finding M6: an axis stepped
+         * at the end of a slow one-event block, then early in the next
+         * block as its minor axis: 2.7 ms apart, its exact crossings 9.3 ms;
+         * blocks of a few slow events ran axes at up to 6.6 times their
+         * rate over one interval). With at least 2 events per exact step of
+         * every axis the lag is at most half the axis's own interval, so one
+         * interval is at least half of what the exact motion gives it, which
+         * the planner keeps at or above 1 / max rate (pk_planner.h d_um):
+         * over any 2 steps at most twice the rate (Grbl's AMASS idea: it
+         * oversamples the Bresenham for the same reason). */
+        uint32_t need = 2u * (((uint32_t)d_ax[i] + 255u) >> 8); /* 2 ceil(D) */
+        if (need > fine)
+            fine = need;
+    }
+    uint32_t ev = mx;
+    if (fine > mx && pk_sg_fine_ok(mx, b->len_q8, b->v_req ? (b->v_req < b->v_lim ? b->v_req : b->v_lim) : b->v_lim))
+        ev = fine > PK_SG_EVENTS_MAX ? PK_SG_EVENTS_MAX : fine;
+    if (ev < mx)
+        ev = mx;
+    b->events = ev;
     for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0) {
             b->inc[i] = 0;
             b->acc0[i] = -1;
             continue;
         }
-        /* qa, qb: up to 2^21 µm * 10,000 steps/mm * 256 > 2^32, but target_steps
-         * = round(qa / 256) (the position contract), so |f| <= 128; |d| <=
-         * 256 (|n| + 1) <= 2^30; f is clamped to [-384, 383] (d >= 256 (|n| - 1)),
-         * so |(f - 128) * mx| <= 512 * 2^21: everything after qa, qb fits 32 bits */
-        int32_t sgn = n[i] > 0 ? 1 : -1, an = n[i] * sgn;
-        /* (relative to target_steps: qa - 256 ts = f, |f| <= 128, and qb - 256 ts
-         * = 256 n + (qb - 256 st), below 2^30 in magnitude: 32 bits) */
-        const int32_t fa = q8steps_from(m->target_um[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
-        const int32_t fb = q8steps_from(p[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
-        int32_t f = fa * sgn;
-        int32_t d = (fb - fa) * sgn;
-        if (d < 0)
-            d = 0;
+        /* (|d| <= 256 (|n| + 1) <= 2^30; f is clamped to [-384, 383] (d >=
+         * 256 (|n| - 1)), so |(f - 128) * ev| <= 512 (2^22 - 1) < 2^31) */
+        int32_t an = n[i] > 0 ? n[i] : -n[i];
+        int32_t f = f_ax[i], d = d_ax[i];
         /* at most one step per event: an axis whose Q8 distance exceeds the
          * events (its ends rounded apart, e.g. -5.5 -> 269.5 steps for 274
          * whole ones) steps at every event; with inc > period its first
          * event could miss and the block would end a step short (M5) */
-        if (d > (int32_t)(256u * mx))
-            d = (int32_t)(256u * mx); /* < d <= 2^30 (mx <= PK_PLANNER_MAX_STEPS = 2^21) */
+        if (d > (int32_t)(256u * ev))
+            d = (int32_t)(256u * ev);
         int32_t lo = 256 * an - d - 128, hi = 256 * an - d + 127;
         f = f < lo ? lo : f > hi ? hi : f;
         b->inc[i] = (uint32_t)d;
-        b->acc0[i] = (f - 128) * (int32_t)mx;
+        b->acc0[i] = (f - 128) * (int32_t)ev;
     }
     m->lines_planned++;
     m->replan = true;

@@ -244,7 +244,6 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     uint32_t v_lim = PK_UM_MIN_MAX;
     uint32_t acc = PK_UM_S2_MAX;
     /* the direction and length of the steps, for the junction and curvature */
-    (void)d_um;
     pk_q30_t u[PK_AXES] = { 0 };
     uint32_t ulen_q8 = len_q8;
     for (unsigned i = 0; i < axes; i++) /* |d| <= len: |u| <= 2^30; |d| << 30 < 2^61 */
@@ -254,6 +253,16 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
         uint32_t ad = (uint32_t)(d < 0 ? -d : d);
+        /* The block runs its steps' length in its time, but an axis's steps
+         * fall where its EXACT position crosses each half step (pk_motion.c),
+         * and the exact displacement may be up to a step longer than the
+         * whole steps (or nonzero with none): that axis then crosses faster
+         * than the steps' direction says (finding M6, a 3-step block moving
+         * 3.49 exact steps). Its limits hold for the larger of the two.
+         * (|d_um| < 2^23: 256 |d_um| < 2^31) */
+        const uint32_t ae = (uint32_t)(d_um[i] < 0 ? -d_um[i] : d_um[i]) << 8;
+        if (ae > ad)
+            ad = ae;
         if (ad == 0)
             continue;
         /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|

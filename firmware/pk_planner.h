@@ -84,11 +84,12 @@ void pk_planner_break(struct pk_planner *p);
  *                 a displacement within 2 PK_UM_MAX): the geometry is planned in steps, so the
  *                 time given to a block is the time its steps need
  * @param d_steps  displacement in steps (|d_steps[i]| <= PK_PLANNER_MAX_STEPS)
- * @param d_um     the exact displacement requested, µm (|d_um[i]| < 2^23): the
- *                 direction the junction and curvature limits use (the
- *                 direction of a few whole steps is too coarse for them: a
- *                 78 µm chord at 80 steps/mm is 6 steps, its direction off by
- *                 up to 0.16 rad)
+ * @param d_um     the exact displacement requested, µm (|d_um[i]| < 2^23):
+ *                 each axis's rate and acceleration limits hold for the
+ *                 larger of it and d_q8[i], since an axis's steps fall where
+ *                 its exact position crosses each half step (pk_motion.c),
+ *                 and the exact displacement may exceed the whole steps' by
+ *                 up to one step (finding M6)
  * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
  *                 allow, scaled by the rapid override; else the feed override
  *                 applies)

@@ -72,6 +72,41 @@
 #if PK_SG_MAX_EVENTS < 2 || PK_SG_MAX_EVENTS > 1024
 #error "PK_SG_MAX_EVENTS must be 2..1024"
 #endif
+/** Most events in one block (pk_mq.h events): 256 times it and 512 times
+ *  it stay below 2^31 (the Bresenham period and start values, pk_motion.c). */
+#define PK_SG_EVENTS_MAX (((uint32_t)1 << 22) - 1u)
+
+/**
+ * Fine events (finding M6). A block whose minor axis moves more than half as
+ * many steps as the block has events gets 2 events per exact step of that
+ * axis, so that no step lags its exact crossing by more than half the axis's
+ * own interval (pk_motion.c plan_piece has the argument). That costs timer
+ * callbacks with no step; a board whose callback cannot afford them at speed
+ * sets PK_SG_FINE_HZ: blocks whose dominant axis steps faster than this at
+ * their nominal speed (steps/s, before overrides) keep one event per
+ * dominant step, and their minor axes lag by up to one event (1/PK_SG_FINE_HZ
+ * at most). 0 (the default): fine events at every speed.
+ */
+#ifndef PK_SG_FINE_HZ
+#define PK_SG_FINE_HZ 0u
+#endif
+
+/** Whether a block of mx dominant steps over len_q8 (µm Q8) at v (µm/min)
+ *  gets fine events (PK_SG_FINE_HZ). MAIN. */
+static inline bool pk_sg_fine_ok(uint32_t mx, uint32_t len_q8, uint32_t v_um_min)
+{
+#if PK_SG_FINE_HZ == 0
+    (void)mx;
+    (void)len_q8;
+    (void)v_um_min;
+    return true;
+#else
+    /* steps/s = mx v 256 / (60 len): compare mx v 256 <= HZ 60 len (64-bit:
+     * mx < 2^22, v < 2^32) */
+    return (uint64_t)mx * v_um_min * 256u <= (uint64_t)PK_SG_FINE_HZ * 60u * len_q8;
+#endif
+}
+
 /** Longest chunk, ticks: keeps every interval of a chunk of several events
  *  below 2^14 ticks, so the recurrence fits 32 bits in Q16. */
 #define PK_SG_CHUNK_TICKS_MAX 16384u

@@ -429,8 +429,12 @@ static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(vo
      * evolving seed): a wider search, by hand, for finding M6 and its kin */
     const char *sw = getenv("PK_SWEEP");
     const unsigned nk = sw != NULL && atoi(sw) > 0 ? (unsigned)atoi(sw) : 18u;
+    /* PK_ONLY=K: check run K alone (its random walk is still drawn in order) */
+    const char *only = getenv("PK_ONLY");
     for (unsigned k = 0; k < nk; k++) {
         shape(9 + (int)(k % 3));
+        if (only != NULL && (unsigned)atoi(only) != k)
+            continue;
         struct run_cfg rc;
         memset(&rc, 0, sizeof rc);
         rc.spmm[0] = spmm[k % 6];
@@ -447,6 +451,8 @@ static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(vo
         }
         struct result r;
         run_one(&rc, &r);
+        if (getenv("PK_DEBUG"))
+            fprintf(stderr, "run %u\n", k);
         check("random walk", &rc, &r, &bad);
     }
     TH_EXPECT_EQ(bad, 0);
