@@ -223,6 +223,7 @@ int pk_machine_configure(struct pk_machine *m, const struct pk_motion_cfg *cfg)
         m->sg.pos[i] = i < m->cfg.axes ? pos[i] : 0;
         m->target_steps[i] = m->sg.pos[i];
         m->target_um[i] = i < m->cfg.axes ? pk_steps_to_um(m->sg.pos[i], cfg->steps_per_mm_q16[i]) : 0;
+        m->timed_um[i] = m->target_um[i];
     }
     m->sg.dir_cur = dir;
     m->sg.alarm = alarm;
@@ -632,8 +633,27 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     for (unsigned i = 0; i < axes; i++)
         d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
-    for (unsigned i = 0; i < axes; i++)
-        d_um[i] = p[i] - m->target_um[i];
+    /* The exact motion this block's time covers: from where the last block
+     * ended, through any moves without a whole step since. Those took no
+     * time, so a step right after one came as early as its exact crossing
+     * while the time for the way there was never given (finding M6: one
+     * interval at 1.2 times the axis's bound). Their way is now the block's
+     * lead: the first lead_q8 of its length, run at its speed with no event
+     * (none of them crosses a half step), and its axes' limits hold for the
+     * whole exact motion. The steps themselves still follow the exact path
+     * from target_um. */
+    uint32_t lead_q8 = 0;
+    {
+        uint64_t ss = 0;
+        for (unsigned i = 0; i < axes; i++) {
+            d_um[i] = p[i] - m->timed_um[i];
+            /* |skip| < 2^23 µm: Q4 squares < 2^54, three of them < 2^56 */
+            const int64_t sk = (int64_t)(m->target_um[i] - m->timed_um[i]) * 16;
+            ss += (uint64_t)(sk * sk);
+        }
+        if (ss != 0)
+            lead_q8 = pk_isqrt64(ss) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
+    }
     uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
     /* The only queued block is being cut, or the machine is moving and that
      * block is next: its entry speed is already committed (the exit of what
@@ -642,7 +662,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
      * and the speed carried through it at 3.9x the next axis's rate). */
     if ((m->sg.prep_active || m->sg.busy) && pk_mq_count(&m->mq) == 1u)
         flags |= PK_PLAN_PREV_LOCKED;
-    int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, feed, flags);
+    int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, lead_q8, feed, flags);
     if (r < 0)
         return -1;
     struct pk_block *b = pk_mq_at(&m->mq, pk_mq_count(&m->mq) - 1u);
@@ -712,6 +732,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     m->replan = true;
     m->junction_sharp = done ? m->line_sharp : false; /* between pieces: straight on */
     memcpy(m->target_um, p, sizeof m->target_um);
+    memcpy(m->timed_um, p, sizeof m->timed_um);
     memcpy(m->target_steps, st, sizeof m->target_steps);
     return done;
 }
@@ -1084,6 +1105,7 @@ bool pk_machine_reset(struct pk_machine *m)
     for (unsigned i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = m->sg.pos[i];
         m->target_um[i] = pk_steps_to_um(m->sg.pos[i], m->cfg.steps_per_mm_q16[i]);
+        m->timed_um[i] = m->target_um[i];
     }
     return interrupted;
 }
@@ -1276,6 +1298,7 @@ int pk_machine_set_position(struct pk_machine *m, const pk_steps_t pos[PK_AXES])
     for (uint32_t i = 0; i < m->cfg.axes; i++) {
         m->target_steps[i] = pos[i];
         m->target_um[i] = pk_steps_to_um(pos[i], m->cfg.steps_per_mm_q16[i]);
+        m->timed_um[i] = m->target_um[i];
     }
     run_start(m);
     return PK_MOTION_OK;

@@ -225,6 +225,12 @@ struct pk_machine {
     pk_steps_t target_steps[PK_AXES];    /**< last planned position, steps (MAIN) */
     pk_um_t target_um[PK_AXES];          /**< exact position the plan has reached, µm:
                                               where the next block starts (MAIN) */
+    pk_um_t timed_um[PK_AXES];           /**< exact position the last planned block's
+                                              time reaches: a move with no whole step
+                                              adds no block, so target_um moves on
+                                              without it; the next block's exact
+                                              motion (its steps' placement and its
+                                              axes' limits) starts here (finding M6) */
     pk_um_t req_z_um;                    /**< Z of the last move taken from the FIFO: a feed
                                               move that changes it bypasses smoothing (MAIN) */
     pk_um_min_t stroke_feed;             /**< feed of the open stroke, µm/min (MAIN) */

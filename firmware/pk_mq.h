@@ -50,7 +50,11 @@ struct pk_block {
                                     fractional start position (pk_motion.c): the axis
                                     steps when its accumulator reaches 0, then drops
                                     by the period, 256 M */
-    uint32_t len_q8;           /**< LINE: path length of the steps, µm Q8 (< 2^31) */
+    uint32_t len_q8;           /**< LINE: path length, µm Q8 (< 2^31): the lead, then
+                                    the steps' length */
+    uint32_t lead_q8;          /**< LINE: the way before the first event, µm Q8 (moves
+                                    without a whole step since the block before:
+                                    pk_planner.h) */
     pk_um_s2_t accel;          /**< LINE: accel along the move, axis-limited, µm/s^2 */
     pk_um_min_t v_req;         /**< LINE: requested speed before override, µm/min (0: rapid) */
     pk_um_min_t v_lim;         /**< LINE: the axes' limit along the move, µm/min */

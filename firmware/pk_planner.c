@@ -218,7 +218,7 @@ pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_A
 
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
-                        pk_um_min_t feed, uint8_t flags)
+                        uint32_t lead_q8, pk_um_min_t feed, uint8_t flags)
 {
     const uint8_t axes = p->lim.axes;
     uint64_t ss = 0;
@@ -234,18 +234,23 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         return 0;
     if (pk_mq_room(q) == 0)
         return -1;
-    uint32_t len_q8 = pk_isqrt64(ss);
-    if (len_q8 == 0)
-        len_q8 = 1;
+    uint32_t steps_q8 = pk_isqrt64(ss);
+    if (steps_q8 == 0)
+        steps_q8 = 1;
+    /* the block's length: its steps' and the lead before them (< 2^31) */
+    if (lead_q8 > 0x7FFFFFFFu - steps_q8)
+        lead_q8 = 0x7FFFFFFFu - steps_q8;
+    const uint32_t len_q8 = steps_q8 + lead_q8;
     struct pk_block *b = pk_mq_push(q);
     b->type = PK_BLK_LINE;
     b->events = events;
     b->len_q8 = len_q8;
+    b->lead_q8 = lead_q8;
     uint32_t v_lim = PK_UM_MIN_MAX;
     uint32_t acc = PK_UM_S2_MAX;
     /* the direction and length of the steps, for the junction and curvature */
     pk_q30_t u[PK_AXES] = { 0 };
-    uint32_t ulen_q8 = len_q8;
+    uint32_t ulen_q8 = steps_q8;
     for (unsigned i = 0; i < axes; i++) /* |d| <= len: |u| <= 2^30; |d| << 30 < 2^61 */
         u[i] = pk_ratio_i32(d_q8[i], 30, ulen_q8);
     for (unsigned i = 0; i < axes; i++) {

@@ -90,6 +90,9 @@ void pk_planner_break(struct pk_planner *p);
  *                 its exact position crosses each half step (pk_motion.c),
  *                 and the exact displacement may exceed the whole steps' by
  *                 up to one step (finding M6)
+ * @param lead_q8  way before the steps, µm Q8 (moves with no whole step since
+ *                 the last block, which took no time): the block's length is
+ *                 its steps' length plus this, and no event falls in it
  * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
  *                 allow, scaled by the rapid override; else the feed override
  *                 applies)
@@ -102,7 +105,7 @@ void pk_planner_break(struct pk_planner *p);
  */
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
-                        pk_um_min_t feed, uint8_t flags);
+                        uint32_t lead_q8, pk_um_min_t feed, uint8_t flags);
 /** pk_planner_add_line flags. */
 enum {
     PK_PLAN_SHARP = 1,      /**< the junction with the previous move is a programmed

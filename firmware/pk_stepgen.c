@@ -344,10 +344,13 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     sg->blk_sent = true;
     sg->v2_blk = sg->v2;
     sg->off_plan = sg->hold;
-    /* event k lies at floor(k L / M): stepped incrementally below */
-    sg->ev_q = b->len_q8 / b->events;
-    sg->ev_r = b->len_q8 % b->events;
-    sg->ev_next = sg->ev_q;
+    /* event k lies at lead + floor(k (L - lead) / M): stepped incrementally
+     * below (the lead: moves without a whole step before the block, run
+     * at its speed, no event in them; lead < L) */
+    const uint32_t span = b->len_q8 - b->lead_q8;
+    sg->ev_q = span / b->events;
+    sg->ev_r = span % b->events;
+    sg->ev_next = b->lead_q8 + sg->ev_q;
     sg->ev_rem = sg->ev_r;
     /* The segment: 2 ms, or shorter so that at twice the nominal speed
      * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
@@ -510,7 +513,8 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
     const uint64_t seg_q16 = clock_time(sg, ds);
     const uint32_t s1 = s0 + ds;
     /* the events in (s0, s1], stepped from the last one prepared (exact:
-     * event k at q k + floor(r k / M) with L = q M + r; event M is at L, and
+     * event k at lead + q k + floor(r k / M) with L - lead = q M + r; event
+     * M is at L, and
      * the one after it beyond any s1 <= L, since q >= 1: a step is longer
      * than 1/256 µm) */
     uint32_t pos = sg->ev_next, prem = sg->ev_rem, n = 0;

@@ -75,7 +75,7 @@ static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES]
     if (xr() % 17 == 0)
         (void)pk_planner_add_stop(p, q, PK_BLK_DWELL, 0, 0, 0);
     else
-        (void)pk_planner_add_line(p, q, dq, st, d, (pk_um_min_t)(60u * (1000u + xr() % 120000u)),
+        (void)pk_planner_add_line(p, q, dq, st, d, 0u, (pk_um_min_t)(60u * (1000u + xr() % 120000u)),
                                   (uint8_t)(xr() % 2u ? PK_PLAN_SHARP : 0u));
 }
 

@@ -21,7 +21,12 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # step generator keeps its own pulse-ending path out of the step interrupt.
 # PK_FLASH_FIRST=1 (pk_munits.h): the chunk preparation's 64-bit helpers stay
 # out of line although pk_stepgen.c is compiled for speed (BOARD_HOT_SRC).
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=5 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+# PK_SG_FINE_HZ=4000 (pk_stepgen.h): 2 events per exact step only in blocks
+# whose dominant axis steps at most 4 kHz, where a one-event lag is a
+# large part of an interval; faster blocks keep one event per step (their
+# minor axes lag by up to 250 µs), so the step interrupt is not asked for
+# twice the events at speed.
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_FINE_HZ=4000 -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=5 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0 -DPK_BUILD_G5=0 -DPK_BUILD_ARCS=0 \
