@@ -420,20 +420,28 @@ static void test_a_still_slow_axis_leaves_the_xy_limits_kept(void)
     TH_EXPECT_EQ(bad, 0);
 }
 
-/* Issue 11's property: every smoothing mode, steps/mm from 1 to 400. */
-static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(void)
+/* The sweep's random walks start from the seed the earlier tests leave
+ * (the every-mode test records it, the M6 test after it reuses it: the run
+ * numbers below are those of that sequence). */
+static uint32_t sweep_seed;
+static int sweep_seed_set;
+
+/* Runs k = 0..nk-1 of the every-mode sweep, checking those listed in only[]
+ * (all when none is given); the random walk of each k is drawn in order. */
+static void sweep(unsigned nk, const unsigned *only, size_t nonly, unsigned *bad)
 {
     static const double spmm[] = { 1, 3.3, 12.5, 80, 157.48, 400 };
-    unsigned bad = 0;
-    /* PK_SWEEP=N: N runs instead of 18 (the random walks go on with the
-     * evolving seed): a wider search, by hand, for finding M6 and its kin */
-    const char *sw = getenv("PK_SWEEP");
-    const unsigned nk = sw != NULL && atoi(sw) > 0 ? (unsigned)atoi(sw) : 18u;
-    /* PK_ONLY=K: check run K alone (its random walk is still drawn in order) */
-    const char *only = getenv("PK_ONLY");
+    if (!sweep_seed_set) {
+        sweep_seed = seed;
+        sweep_seed_set = 1;
+    }
+    seed = sweep_seed;
     for (unsigned k = 0; k < nk; k++) {
         shape(9 + (int)(k % 3));
-        if (only != NULL && (unsigned)atoi(only) != k)
+        int want = nonly == 0;
+        for (size_t j = 0; j < nonly; j++)
+            want |= only[j] == k;
+        if (!want)
             continue;
         struct run_cfg rc;
         memset(&rc, 0, sizeof rc);
@@ -453,8 +461,33 @@ static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(vo
         run_one(&rc, &r);
         if (getenv("PK_DEBUG"))
             fprintf(stderr, "run %u\n", k);
-        check("random walk", &rc, &r, &bad);
+        check("random walk", &rc, &r, bad);
     }
+}
+
+/* Issue 11's property: every smoothing mode, steps/mm from 1 to 400.
+ * PK_SWEEP=N: N runs instead of 18 (a wider search, by hand); PK_ONLY=K:
+ * run K alone. */
+static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(void)
+{
+    unsigned bad = 0;
+    const char *sw = getenv("PK_SWEEP"), *only = getenv("PK_ONLY");
+    const unsigned nk = sw != NULL && atoi(sw) > 0 ? (unsigned)atoi(sw) : 18u;
+    unsigned k1 = only != NULL ? (unsigned)atoi(only) : 0u;
+    sweep(only != NULL && k1 >= nk ? k1 + 1u : nk, &k1, only != NULL, &bad);
+    TH_EXPECT_EQ(bad, 0);
+}
+
+/* Finding M6 (issue 11), the sweep's runs that broke the 2-step rate bound:
+ * 62 (FIXED, B-spline degree 2, 12.5 / 157.48 steps/mm: 1.122 of the bound),
+ * 119 (DLG, 400 / 3.3: 1.911; an axis stepped at the end of a slow
+ * four-event block and early in the next) and 439 (DLG, 3.3 / 80: 1.215; a
+ * move with no whole step took no time). */
+static void test_finding_m6_no_axis_steps_twice_within_half_its_interval(void)
+{
+    static const unsigned runs[] = { 62, 119, 439 };
+    unsigned bad = 0;
+    sweep(440, runs, 3, &bad);
     TH_EXPECT_EQ(bad, 0);
 }
 
@@ -493,6 +526,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_still_slow_axis_leaves_the_xy_limits_kept),
         TH_CASE(test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm),
         TH_CASE(test_one_micrometre_points_along_an_axis_run_at_the_feed_not_over_it),
+        TH_CASE(test_finding_m6_no_axis_steps_twice_within_half_its_interval),
     };
     int f = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);
