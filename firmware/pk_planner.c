@@ -326,6 +326,28 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
                 if (b->accel > along)
                     b->accel = along;
             }
+        } else if (turn != UINT64_MAX && !(flags & PK_PLAN_SHARP)) {
+            /* A vertex of a smoothed curve that does not bind at the
+             * nominal speed still turns: at v its jump is v |u2 - u1| and
+             * its sideways acceleration v^2 kappa, the fraction r =
+             * sqrt(nom / turn) of the budget at most (linear in v for the
+             * jump, quadratic for the curvature: r bounds both). The block
+             * keeps a - r (a - along) along the path: between (a, 0) and
+             * (along, side) on a chord of the budget's circle, so within it
+             * (finding M9: at full a, one axis's windowed acceleration was
+             * up to 7 % over its limit in FIXED mode). (nom < 2^44: the
+             * ratio in Q16 fits 64 bits; r in Q8 <= 256.) */
+            uint64_t ratio = (nom << 16) / turn;
+            uint32_t r_q8 = pk_isqrt64(ratio);
+            if (r_q8 > 256u)
+                r_q8 = 256u;
+            const pk_um_s2_t a_full = b->accel;
+            if (a_full > along) {
+                const pk_um_s2_t cut = (pk_um_s2_t)(((uint64_t)(a_full - along) * r_q8) >> 8);
+                b->accel = a_full - cut;
+                if (cut != 0)
+                    b->curved = 1;
+            }
         }
     }
     b->v2_junction = vj;

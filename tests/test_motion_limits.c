@@ -218,6 +218,14 @@ static void run_one(const struct run_cfg *rc, struct result *res)
     size_t ne[2];
     for (int a = 0; a < 2; a++) {
         ne[a] = pk_mrun_edges(&R, (unsigned)a, &t[a], &d[a]);
+        if (getenv("PK_DUMP")) {
+            /* PK_DUMP=FILE: every step edge, "axis tick dir" (by hand) */
+            FILE *df = fopen(getenv("PK_DUMP"), a ? "a" : "w");
+            for (size_t k = 0; df != NULL && k < ne[a]; k++)
+                fprintf(df, "%d %llu %d\n", a, (unsigned long long)t[a][k], d[a][k]);
+            if (df != NULL)
+                fclose(df);
+        }
         long sum = 0;
         for (size_t k = 0; k < ne[a]; k++)
             sum += d[a][k];
@@ -466,13 +474,13 @@ static void sweep(unsigned nk, const unsigned *only, size_t nonly, unsigned *bad
 }
 
 /* Issue 11's property: every smoothing mode, steps/mm from 1 to 400.
- * PK_SWEEP=N: N runs instead of 18 (a wider search, by hand); PK_ONLY=K:
+ * PK_SWEEP=N: N runs instead of 60 (a wider search, by hand); PK_ONLY=K:
  * run K alone. */
 static void test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm(void)
 {
     unsigned bad = 0;
     const char *sw = getenv("PK_SWEEP"), *only = getenv("PK_ONLY");
-    const unsigned nk = sw != NULL && atoi(sw) > 0 ? (unsigned)atoi(sw) : 18u;
+    const unsigned nk = sw != NULL && atoi(sw) > 0 ? (unsigned)atoi(sw) : 60u;
     unsigned k1 = only != NULL ? (unsigned)atoi(only) : 0u;
     sweep(only != NULL && k1 >= nk ? k1 + 1u : nk, &k1, only != NULL, &bad);
     TH_EXPECT_EQ(bad, 0);
@@ -487,6 +495,8 @@ static void test_finding_m6_no_axis_steps_twice_within_half_its_interval(void)
 {
     static const unsigned runs[] = { 62, 119, 439 };
     unsigned bad = 0;
+    if (getenv("PK_ONLY") != NULL)
+        return; /* a single sweep run was asked for */
     sweep(440, runs, 3, &bad);
     TH_EXPECT_EQ(bad, 0);
 }
@@ -495,6 +505,8 @@ static void test_finding_m6_no_axis_steps_twice_within_half_its_interval(void)
  * G1 F3000 to X0 Y10, then points 1 µm apart along X. */
 static void test_one_micrometre_points_along_an_axis_run_at_the_feed_not_over_it(void)
 {
+    if (getenv("PK_ONLY") != NULL)
+        return; /* a single sweep run was asked for */
     NP = 0;
     pt(0, 0);
     pt(0, 10000);
@@ -517,6 +529,20 @@ static void test_one_micrometre_points_along_an_axis_run_at_the_feed_not_over_it
     TH_EXPECT_EQ(bad, 0);
 }
 
+/* Finding M9 (issue 11): the sweep's run 77 (FIXED, B-spline degree 2,
+ * 400 / 3.3 steps/mm): X's acceleration over two 40 ms windows 1.021 times
+ * the allowance, a vertex of the smoothed curve that did not bind at the
+ * nominal speed turning on top of the full acceleration along the path. */
+static void test_finding_m9_a_turn_at_speed_shares_the_acceleration(void)
+{
+    static const unsigned runs[] = { 77 };
+    unsigned bad = 0;
+    if (getenv("PK_ONLY") != NULL)
+        return; /* a single sweep run was asked for */
+    sweep(78, runs, 1, &bad);
+    TH_EXPECT_EQ(bad, 0);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -527,6 +553,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_every_mode_keeps_rates_and_accelerations_at_any_steps_per_mm),
         TH_CASE(test_one_micrometre_points_along_an_axis_run_at_the_feed_not_over_it),
         TH_CASE(test_finding_m6_no_axis_steps_twice_within_half_its_interval),
+        TH_CASE(test_finding_m9_a_turn_at_speed_shares_the_acceleration),
     };
     int f = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);

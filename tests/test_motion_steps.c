@@ -354,13 +354,16 @@ static void test_a_move_after_a_full_stop_starts_from_zero(void)
     int8_t *d;
     size_t n = pk_mrun_edges(&R, 0, &t, &d);
     TH_ASSERT(n == 800 + 800 + 400);
-    /* from rest, step 1 comes after sqrt(2 d / a), step 2 after sqrt(4 d / a) */
+    /* from rest at a whole step, the axis steps where its exact position
+     * crosses each half step (the position contract: it is at round() of
+     * it): step 1 after half a step, sqrt(2 d / (2 a)), step 2 after 1.5
+     * steps, sqrt(3 d / a) (d = 1 step, a in steps/s^2) */
     double a = 1000.0 * 80.0, f = 1e7;
     size_t starts[2] = { 800, 1600 };
     for (int k = 0; k < 2; k++) {
         size_t j = starts[k];
         double I2 = (double)(t[j + 1] - t[j]);
-        double want = (sqrt(4.0 / a) - sqrt(2.0 / a)) * f;
+        double want = (sqrt(3.0 / a) - sqrt(1.0 / a)) * f;
         TH_EXPECT(fabs(I2 - want) <= 0.02 * want + 2.0);
         TH_EXPECT(d[j] == (k == 0 ? 1 : -1));
     }
