@@ -1059,8 +1059,11 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
             mask = (uint32_t)w;
         }
         const uint8_t dir = sg->dir_cur;
-        if (!sg->hw_pulse) {
-            /* the core lowers the lines itself: one more call, pulse_ticks on */
+        if (!sg->hw_pulse && mask != 0u) {
+            /* the core lowers the lines itself: one more call, pulse_ticks on
+             * (an event with no step, one of a block's fine events, raises
+             * nothing and has no pulse to end: a reset then finds the
+             * machine between events, not in a pulse with no line high) */
             if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
                 return isr_alarm(sg, PK_ALARM_STEP_WRITE);
             for (unsigned i = 0; i < sg->axes; i++)

@@ -288,7 +288,8 @@ uint32_t pk_sg_pending(const struct pk_stepgen *sg);
  * PK_HAL_TIMER_STOP. Every step event is one call if the HAL has step_pulse
  * (it ends the pulse; the next edge comes at least 2 pulse widths after the
  * raising one, a direction change after the pulse has ended), else two (the
- * second lowers the lines pulse_ticks later). 32-bit arithmetic only. ISR.
+ * second lowers the lines pulse_ticks later; an event with no step is one
+ * call either way). 32-bit arithmetic only. ISR.
  */
 uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now);
 
