@@ -26,6 +26,7 @@
  * only where a phase ends inside the segment (the nominal and exit speeds are
  * cached per block): this is what lets an 8-bit chip keep the queue fed.
  */
+#include <stddef.h>
 #include <string.h>
 #include "pk_stepgen.h"
 #include "pk_motion.h"
@@ -1018,22 +1019,76 @@ static SG_COLD void isr_restart(struct pk_stepgen *sg, const struct pk_hal *hal,
     }
 }
 
-/* The axes due at this event (Bresenham over the block's events). */
-static inline SG_INLINE uint32_t isr_bresenham(struct pk_stepgen *sg)
+/* The step path's fields within the first 64 bytes (struct pk_stepgen). */
+_Static_assert(offsetof(struct pk_stepgen, pos) + sizeof(((struct pk_stepgen *)0)->pos) <= 64u,
+               "the step path's state must stay within the first 64 bytes of struct pk_stepgen");
+
+/* One axis of the Bresenham step (isr_bresenham): unrolled, so that every
+ * bit and field is a constant (no shift loops, fixed displacements). */
+#define SG_BRES_AXIS(sg, i, period, mask)                                                          \
+    do {                                                                                           \
+        int32_t a_ = (sg)->acc[i] + (int32_t)(sg)->inc[i];                                         \
+        if (a_ >= 0) {                                                                             \
+            a_ -= (period);                                                                        \
+            (mask) = (uint8_t)((mask) | (1u << (i)));                                              \
+        }                                                                                          \
+        (sg)->acc[i] = a_;                                                                         \
+    } while (0)
+
+/* The axes due at this event (Bresenham over the block's events; axes at
+ * and beyond sg->axes never step). PK_AXES is 2 or 3 (pk_refine.h). */
+static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 {
-    uint32_t mask = 0;
+    uint8_t mask = 0u;
+    const uint8_t n = sg->axes;
     const int32_t period = (int32_t)sg->period;
-    for (unsigned i = 0; i < PK_AXES; i++) {
-        if (i >= sg->axes)
-            break;
-        int32_t a = sg->acc[i] + (int32_t)sg->inc[i];
-        if (a >= 0) {
-            a -= period;
-            mask |= 1u << i;
-        }
-        sg->acc[i] = a;
-    }
+    if (n > 0u)
+        SG_BRES_AXIS(sg, 0, period, mask);
+    if (n > 1u)
+        SG_BRES_AXIS(sg, 1, period, mask);
+#if PK_AXES > 2
+    if (n > 2u)
+        SG_BRES_AXIS(sg, 2, period, mask);
+#endif
     return mask;
+}
+
+/* The emitted position: one step on every axis of mask, in its direction. */
+static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint8_t dir)
+{
+    if (mask & 1u)
+        sg->pos[0] += (dir & 1u) ? 1 : -1;
+    if (mask & 2u)
+        sg->pos[1] += (dir & 2u) ? 1 : -1;
+#if PK_AXES > 2
+    if (mask & 4u)
+        sg->pos[2] += (dir & 4u) ? 1 : -1;
+#endif
+}
+
+/* The HAL's step_pulse on the step path. A build that knows its HAL names
+ * the function (PK_SG_PULSE_FN, e.g. the AVR boards: pk_avr_step_pulse8,
+ * same contract as ops->step_pulse with 8-bit masks) and the step path calls
+ * it directly: no table load, no indirect call, 8-bit arguments. The table's
+ * step_pulse must then be that HAL's (it decides hw_pulse). */
+#ifdef PK_SG_PULSE_FN
+int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint32_t width_ticks);
+#define SG_STEP_PULSE(hal, mask, levels, w) PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (w))
+#else
+#define SG_STEP_PULSE(hal, mask, levels, w) (hal)->ops->step_pulse((hal)->ctx, (mask), (levels), (w))
+#endif
+
+/* A step event on a HAL without step_pulse: the core raises the lines and
+ * lowers them itself, pulse_ticks later (one more call). Inline for such a
+ * HAL (the host's); out of line in a build whose HAL has step_pulse
+ * (PK_SG_HW_PULSE=1), which keeps its registers off the step path. */
+static SG_PULSE_LOW uint32_t isr_step_sw(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t mask)
+{
+    if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
+        return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+    isr_count(sg, mask, sg->dir_cur);
+    sg->phase = PK_SGP_PULSE;
+    return sg->pulse_ticks;
 }
 
 uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
@@ -1046,36 +1101,25 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
     uint32_t earliest = now;
     const uint8_t phase = sg->phase;
     if (phase == PK_SGP_STEP_DUE) {
-        uint32_t mask = isr_bresenham(sg);
+        uint8_t mask = isr_bresenham(sg);
         /* armed, and something to do: inputs to read, a watch fired, an axis locked */
         if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
             int32_t w = watch_event(sg, hal, mask);
             if (w < 0)
                 return isr_watch_stop(sg);
-            mask = (uint32_t)w;
+            mask = (uint8_t)w;
         }
-        const uint8_t dir = sg->dir_cur;
-        if (!sg->hw_pulse) {
-            /* the core lowers the lines itself: one more call, pulse_ticks on */
-            if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
-                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-            for (unsigned i = 0; i < sg->axes; i++)
-                if (mask & (1u << i))
-                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
-            sg->phase = PK_SGP_PULSE;
-            return sg->pulse_ticks;
-        }
+        if (!sg->hw_pulse)
+            return isr_step_sw(sg, hal, mask);
         /* the backend ends the pulse: on to the next event in this call */
         sg->phase = PK_SGP_GAP;
         if (mask != 0u) {
-            if (hal->ops->step_pulse(hal->ctx, mask, mask & ~hal->step_invert, sg->pulse_ticks) != 0)
+            if (SG_STEP_PULSE(hal, mask, (uint8_t)(mask & ~hal->step_invert), sg->pulse_ticks) != 0)
                 return isr_alarm(sg, PK_ALARM_STEP_WRITE);
             earliest = now + 2u * sg->pulse_ticks;
             sg->low_until = earliest;
             sg->pulse_hot = 1u;
-            for (unsigned i = 0; i < PK_AXES; i++)
-                if (mask & (1u << i))
-                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
+            isr_count(sg, mask, sg->dir_cur);
         }
     } else if (phase == PK_SGP_PULSE) {
         uint32_t r = isr_pulse_low(sg, hal);

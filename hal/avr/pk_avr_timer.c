@@ -155,7 +155,7 @@ ISR(PK_BOARD_STEP_OVF_vect)
         a->ovf_hi++;
 }
 
-int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
+int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint32_t width_ticks)
 {
     struct pk_avr *a = ctx;
     uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : (uint16_t)width_ticks;
@@ -163,9 +163,9 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
     cli();
     if (a->pulse_on)
         pulse_end(a); /* (the core never overlaps pulses) */
-    pk_board_step_write((uint8_t)mask, (uint8_t)levels);
+    pk_board_step_write(mask, levels);
     a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_mask = (uint8_t)mask;
+    a->pulse_mask = mask;
     a->pulse_idle = (uint8_t)(~levels & mask);
     if (w <= PK_AVR_PULSE_SPIN) {
         while (!pulse_due(a))
@@ -178,6 +178,11 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
     }
     SREG = s;
     return PK_HAL_OK;
+}
+
+int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
+{
+    return pk_avr_step_pulse8(ctx, (uint8_t)mask, (uint8_t)levels, width_ticks);
 }
 
 void pk_avr_timer_init(struct pk_avr *a)
