@@ -855,18 +855,119 @@ static inline SG_INLINE uint8_t pulse_state(const struct pk_stepgen *sg, uint32_
 #define PK_SG_HW_PULSE 0
 #endif
 
-/* The ring's tail chunks once the current one is done (left == 0): run the
- * ones that are not steps (a line block's set-up, tool, spindle, waits) and
- * set up the next chunk of events. Returns with an event set up (left > 0;
- * the result is then unused), or with left == 0 and what the callback
- * returns. sg->earliest: no step edge before it (moved by a direction
- * change). Once per chunk: out of line, so that the step path does not pay
- * for its registers. */
-static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+/* One chunk of the ring's tail (c, at index t) that is not a plain STEPS
+ * chunk with no watch armed (isr_next_chunk takes those itself): a line
+ * block's set-up, tool, spindle, waits, SLOW events, or any chunk while a
+ * watch is armed. Returns 1 with *ret = what the callback returns (the tail
+ * moved or not as the chunk needs), or 0 once the chunk is done (the caller
+ * moves the tail). sg->earliest: no step edge before it (moved by a
+ * direction change). Out of line and cold: its registers stay off the
+ * STEPS path. */
+static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now,
+                             struct pk_sg_chunk *c, uint8_t t, uint32_t *ret)
 {
-    uint32_t ret;
     uint32_t *earliest = &sg->earliest;
-    const uint32_t all = (1u << sg->axes) - 1u;
+    if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
+        *ret = isr_watch_stop(sg);
+        return 1;
+    }
+    switch (c->kind) {
+    case PK_SGC_BLOCK:
+        if (c->arg != sg->dir_cur) {
+            uint32_t w;
+            if (pulse_state(sg, now, &w) == 1u) {
+                /* the last step's pulse is still high: change the
+                 * directions once it has ended (this chunk again) */
+                *ret = w;
+                return 1;
+            }
+        }
+        if (c->spindle != sg->spindle_cur) {
+            int r = pk_hal_spindle_write(hal, c->spindle);
+            if (r != 0 && r != PK_HAL_ENOSYS) {
+                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                return 1;
+            }
+            sg->spindle_cur = c->spindle;
+        }
+        for (unsigned i = 0; i < sg->axes; i++) {
+            sg->inc[i] = c->u.blk.inc[i];
+            sg->acc[i] = c->u.blk.acc0[i];
+        }
+        sg->period = c->u.blk.period;
+        if (c->arg != sg->dir_cur) {
+            const uint32_t all = (1u << sg->axes) - 1u;
+            if (pk_hal_dir_write(hal, all, c->arg) != 0) {
+                *ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
+                return 1;
+            }
+            sg->dir_cur = c->arg;
+            uint32_t e = now + sg->dir_setup_ticks;
+            if ((int32_t)(e - *earliest) > 0)
+                *earliest = e;
+        }
+        return 0;
+    case PK_SGC_STEPS:
+        sg->left = c->n;
+        t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+        sg->I = c->u.st.c1;
+        sg->A = c->u.st.c2;
+        sg->v_um_s = c->v_um_s;
+        return 0;
+    case PK_SGC_SLOW: {
+        /* one event after a long interval: whole ticks + Q16 fraction
+         * (no ramp); a very long one is waited out in parts first */
+        uint32_t tk = c->u.ticks;
+        if (tk >= 2u * SG_SLOW_SPLIT) {
+            c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
+            sg->next_t += SG_SLOW_SPLIT;
+            sg->v_um_s = c->v_um_s;
+            *ret = sg->next_t - now;
+            return 1;
+        }
+        sg->left = 1;
+        sg->next_t += tk;
+        t_add(sg, (int32_t)c->n);
+        sg->I = 0;
+        sg->A = 0;
+        sg->v_um_s = c->v_um_s;
+        return 0;
+    }
+    default: {
+        if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
+            *ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+            return 1;
+        }
+        if (c->kind == PK_SGC_SPINDLE) {
+            int r = pk_hal_spindle_write(hal, c->spindle);
+            if (r != 0 && r != PK_HAL_ENOSYS) {
+                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                return 1;
+            }
+            sg->spindle_cur = c->spindle;
+        }
+        uint32_t w = c->u.ticks;
+        if (w == 0u)
+            w = 1u;
+        if (w == PK_HAL_TIMER_STOP)
+            w--;
+        sg->v_um_s = 0u;
+        PK_BARRIER();
+        sg->tail = (uint8_t)(t + 1u);
+        sg->next_t = now + w;
+        sg->next_f = 0u;
+        *ret = w;
+        return 1;
+    }
+    }
+}
+
+/* The ring's tail chunks once the current one is done (left == 0): run the
+ * ones that are not steps (isr_chunk) and set up the next chunk of events.
+ * Returns with an event set up (left > 0; the result is then unused), or
+ * with left == 0 and what the callback returns. */
+static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
     for (;;) {
         uint8_t t = sg->tail;
         uint8_t h = sg->head;
@@ -874,111 +975,45 @@ static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct p
         if (t == h) {
             sg->v_um_s = 0u;
             sg->busy = false;
-            ret = PK_HAL_TIMER_STOP;
-            return ret;
+            return PK_HAL_TIMER_STOP;
         }
         struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
-            ret = isr_watch_stop(sg);
+        uint32_t ret;
+        if (isr_chunk(sg, hal, now, c, t, &ret))
             return ret;
-        }
-        switch (c->kind) {
-        case PK_SGC_BLOCK:
-            if (c->arg != sg->dir_cur) {
-                uint32_t w;
-                if (pulse_state(sg, now, &w) == 1u) {
-                    /* the last step's pulse is still high: change the
-                     * directions once it has ended (this chunk again) */
-                    ret = w;
-                    return ret;
-                }
-            }
-            if (c->spindle != sg->spindle_cur) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS) {
-                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return ret;
-                }
-                sg->spindle_cur = c->spindle;
-            }
-            for (unsigned i = 0; i < sg->axes; i++) {
-                sg->inc[i] = c->u.blk.inc[i];
-                sg->acc[i] = c->u.blk.acc0[i];
-            }
-            sg->period = c->u.blk.period;
-            if (c->arg != sg->dir_cur) {
-                if (pk_hal_dir_write(hal, all, c->arg) != 0) {
-                    ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
-                    return ret;
-                }
-                sg->dir_cur = c->arg;
-                uint32_t e = now + sg->dir_setup_ticks;
-                if ((int32_t)(e - *earliest) > 0)
-                    *earliest = e;
-            }
-            break;
-        case PK_SGC_STEPS:
-            /* first interval c0, then c1 changing by c2 per event: the
-             * difference c0 - c1 is added once here, so that every event
-             * is the same two adds */
-            sg->left = c->n;
-            t_add(sg, c->u.st.c0);
-            t_add(sg, -c->u.st.c1);
-            sg->I = c->u.st.c1;
-            sg->A = c->u.st.c2;
-            sg->v_um_s = c->v_um_s;
-            break;
-        case PK_SGC_SLOW: {
-            /* one event after a long interval: whole ticks + Q16 fraction
-             * (no ramp); a very long one is waited out in parts first */
-            uint32_t tk = c->u.ticks;
-            if (tk >= 2u * SG_SLOW_SPLIT) {
-                c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
-                sg->next_t += SG_SLOW_SPLIT;
-                sg->v_um_s = c->v_um_s;
-                ret = sg->next_t - now;
-                return ret;
-            }
-            sg->left = 1;
-            sg->next_t += tk;
-            t_add(sg, (int32_t)c->n);
-            sg->I = 0;
-            sg->A = 0;
-            sg->v_um_s = c->v_um_s;
-            break;
-        }
-        default: {
-            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
-                ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
-                return ret;
-            }
-            if (c->kind == PK_SGC_SPINDLE) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS) {
-                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return ret;
-                }
-                sg->spindle_cur = c->spindle;
-            }
-            uint32_t w = c->u.ticks;
-            if (w == 0u)
-                w = 1u;
-            if (w == PK_HAL_TIMER_STOP)
-                w--;
-            sg->v_um_s = 0u;
-            PK_BARRIER();
-            sg->tail = (uint8_t)(t + 1u);
-            sg->next_t = now + w;
-            sg->next_f = 0u;
-            ret = w;
-            return ret;
-        }
-        }
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
         if (sg->left != 0u)
             return 0u;
     }
+}
+
+/* isr_chunks, with its common case first: a STEPS chunk (nearly all of
+ * them) with no watch armed is set up here, in few registers; anything else
+ * goes on to isr_chunks (a tail call). Once per chunk: out of line, so that
+ * the step path does not pay for its registers. */
+static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
+    uint8_t t = sg->tail;
+    uint8_t h = sg->head;
+    PK_BARRIER(); /* read the chunk only after seeing it published */
+    if (t != h) {
+        const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (c->kind == PK_SGC_STEPS && c->n != 0u && sg->watch == 0u) {
+            /* first interval c0, then c1 changing by c2 per event: the
+             * difference c0 - c1 (|c0 - c1| < 2^30) is added once here, so
+             * that every event is the same two adds */
+            sg->left = c->n;
+            t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+            sg->I = c->u.st.c1;
+            sg->A = c->u.st.c2;
+            sg->v_um_s = c->v_um_s;
+            PK_BARRIER(); /* done reading the slot before handing it back */
+            sg->tail = (uint8_t)(t + 1u);
+            return 0u;
+        }
+    }
+    return isr_chunks(sg, hal, now);
 }
 
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
