@@ -70,7 +70,12 @@ static inline __attribute__((always_inline)) uint32_t now32(const struct pk_avr 
     uint16_t hi = a->ovf_lo;
     if ((PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_TOV)) && lo < 0x8000u)
         hi++;
-    return (uint32_t)hi << 16 | lo;
+    /* hi:lo as two register moves (avr-gcc assembles (uint32_t)hi << 16 | lo
+     * through a dozen, twice per step interrupt); multi-byte values sit in
+     * even register pairs, as movw needs */
+    uint32_t v;
+    __asm__("movw %A0, %A1\n\tmovw %C0, %A2" : "=&r"(v) : "r"(lo), "r"(hi));
+    return v;
 }
 
 /* Write the compare register for next (d = next - now > LEAD ticks ahead).
