@@ -1149,11 +1149,14 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
         /* the backend ends the pulse: on to the next event in this call */
         sg->phase = PK_SGP_GAP;
         if (mask != 0u) {
-            if (SG_STEP_PULSE(hal, mask, (uint8_t)(mask & ~hal->step_invert), sg->pulse_ticks) != 0)
-                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-            earliest = now + 2u * sg->pulse_ticks;
+            const uint32_t pt = sg->pulse_ticks;
+            earliest = now + 2u * pt;
             sg->low_until = earliest;
             sg->pulse_hot = 1u;
+            if (SG_STEP_PULSE(hal, mask, (uint8_t)(mask & ~hal->step_invert), pt) != 0) {
+                sg->pulse_hot = 0u; /* (no pulse was raised) */
+                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+            }
             isr_count(sg, mask, sg->dir_cur);
         }
     } else if (phase == PK_SGP_PULSE) {
