@@ -209,6 +209,7 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
 {
     memset(sg, 0, sizeof *sg);
     sg->axes = axes;
+    sg->bres = (uint8_t)((1u << axes) - 1u); /* (until the first block: every axis, as the sums say) */
     sg->tick_hz = tick_hz;
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
@@ -890,9 +891,17 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
             }
             sg->spindle_cur = c->spindle;
         }
-        for (unsigned i = 0; i < sg->axes; i++) {
-            sg->inc[i] = c->u.blk.inc[i];
-            sg->acc[i] = c->u.blk.acc0[i];
+        {
+            uint8_t bres = 0u, bit = 1u;
+            for (unsigned i = 0; i < sg->axes; i++, bit = (uint8_t)(bit << 1)) {
+                const uint32_t inc = c->u.blk.inc[i];
+                const int32_t acc = c->u.blk.acc0[i];
+                sg->inc[i] = inc;
+                sg->acc[i] = acc;
+                if (inc != 0u || acc >= 0)
+                    bres |= bit;
+            }
+            sg->bres = bres;
         }
         sg->period = c->u.blk.period;
         if (c->arg != sg->dir_cur) {
@@ -1070,19 +1079,21 @@ _Static_assert(offsetof(struct pk_stepgen, pos) + sizeof(((struct pk_stepgen *)0
         (sg)->acc[i] = a_;                                                                         \
     } while (0)
 
-/* The axes due at this event (Bresenham over the block's events; axes at
- * and beyond sg->axes never step). PK_AXES is 2 or 3 (pk_refine.h). */
+/* The axes due at this event (Bresenham over the block's events). Only the
+ * axes of sg->bres: an axis driven with no increment and its accumulator
+ * below 0 would neither step nor change it (and axes at and beyond sg->axes
+ * never step). PK_AXES is 2 or 3 (pk_refine.h). */
 static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 {
     uint8_t mask = 0u;
-    const uint8_t n = sg->axes;
+    const uint8_t b = sg->bres;
     const int32_t period = (int32_t)sg->period;
-    if (n > 0u)
+    if (b & 1u)
         SG_BRES_AXIS(sg, 0, period, mask);
-    if (n > 1u)
+    if (b & 2u)
         SG_BRES_AXIS(sg, 1, period, mask);
 #if PK_AXES > 2
-    if (n > 2u)
+    if (b & 4u)
         SG_BRES_AXIS(sg, 2, period, mask);
 #endif
     return mask;

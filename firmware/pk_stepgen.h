@@ -134,7 +134,10 @@ struct pk_stepgen {
     volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
     bool restart;              /**< ISR: first call after (re)arming: rebase time */
     volatile uint8_t watch;    /**< enum pk_sg_watch bits armed (see below) */
-    uint8_t axes;              /**< configuration: axes driven (set at init) */
+    uint8_t bres;              /**< axes whose Bresenham step can fire in the block
+                                    running: of the axes driven, those with an
+                                    increment or an accumulator >= 0 (the others keep
+                                    theirs, below 0, to the block's end) */
     uint16_t next_f;           /**< fraction of a tick of next_t, Q16 */
     uint16_t left;             /**< events left in the current chunk */
     uint32_t next_t;           /**< tick of the last scheduled event (the HAL
@@ -152,6 +155,7 @@ struct pk_stepgen {
     uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
 
     /* ---- configuration (set at init, read-only afterwards) ---- */
+    uint8_t axes;              /**< axes driven */
     uint32_t tick_hz;
     uint32_t dir_setup_ticks;
 
