@@ -1114,12 +1114,14 @@ static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint
 
 /* The HAL's step_pulse on the step path. A build that knows its HAL names
  * the function (PK_SG_PULSE_FN, e.g. the AVR boards: pk_avr_step_pulse8,
- * same contract as ops->step_pulse with 8-bit masks) and the step path calls
- * it directly: no table load, no indirect call, 8-bit arguments. The table's
- * step_pulse must then be that HAL's (it decides hw_pulse). */
+ * same contract as ops->step_pulse with 8-bit masks and a 16-bit width,
+ * min(pulse_ticks, 65,535)) and the step path calls it directly: no table
+ * load, no indirect call, narrow arguments. The table's step_pulse must
+ * then be that HAL's (it decides hw_pulse). */
 #ifdef PK_SG_PULSE_FN
-int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint32_t width_ticks);
-#define SG_STEP_PULSE(hal, mask, levels, w) PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (w))
+int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
+#define SG_STEP_PULSE(hal, mask, levels, w)                                                        \
+    PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (uint16_t)((w) > 0xFFFFu ? 0xFFFFu : (w)))
 #else
 #define SG_STEP_PULSE(hal, mask, levels, w) (hal)->ops->step_pulse((hal)->ctx, (mask), (levels), (w))
 #endif

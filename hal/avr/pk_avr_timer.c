@@ -160,10 +160,10 @@ ISR(PK_BOARD_STEP_OVF_vect)
         a->ovf_hi++;
 }
 
-int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint32_t width_ticks)
+int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks)
 {
     struct pk_avr *a = ctx;
-    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : (uint16_t)width_ticks;
+    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : width_ticks;
     uint8_t s = SREG;
     cli();
     if (a->pulse_on)
@@ -187,7 +187,8 @@ int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint32_t width_t
 
 int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
 {
-    return pk_avr_step_pulse8(ctx, (uint8_t)mask, (uint8_t)levels, width_ticks);
+    return pk_avr_step_pulse8(ctx, (uint8_t)mask, (uint8_t)levels,
+                              width_ticks > 0xFFFFu ? 0xFFFFu : (uint16_t)width_ticks);
 }
 
 void pk_avr_timer_init(struct pk_avr *a)
