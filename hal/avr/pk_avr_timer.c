@@ -80,14 +80,19 @@ static inline __attribute__((always_inline)) uint32_t now32(const struct pk_avr 
 
 /* Write the compare register for next (d = next - now > LEAD ticks ahead).
  * Returns 1 if the compare will fire for it, 0 if the counter passed it
- * meanwhile. (Interrupts off.) At least 2 ticks must be left after the
- * write: a compare written for the counter's current or next value may not
- * fire until the next wrap (on simavr 1.6 at least). */
+ * meanwhile. (Interrupts off.) At least 4 ticks must be left after the
+ * write: a compare written for a value the counter reaches within a tick or
+ * two may not fire until the next wrap, 32.8 ms later (simavr 1.6 at least;
+ * with 2 ticks, the margin this once had, timer_start's first arm after an
+ * underrun missed now and then once the clock read got a few cycles faster:
+ * the strokes drawing on mega-ramps took 10.13 s on the chip instead of
+ * 9.73 s). A refused arm costs a retry with a wider margin (timer_start) or
+ * a wait of a few ticks inside the interrupt (service). */
 static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a, uint32_t d)
 {
     uint16_t at = (uint16_t)a->next;
     PK_BOARD_STEP_OCR = at;
-    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 1;
+    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 3;
 }
 
 /* The pulse's lines back to idle. Interrupts off. */
