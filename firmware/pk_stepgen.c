@@ -604,6 +604,14 @@ static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
      * at the highest override */
     if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
         return false;
+    /* A probe that has fired holds from here on (the machine sets the same
+     * hold when it sees it): read after the room, so that a slot freed by
+     * the step event that closed the probe is never refilled without it
+     * (its edge is taken before the main loop runs again). On the chip the
+     * main loop otherwise saw the edge before or after this point as its
+     * timing fell, and ran one step more than `plotkin sim` now and then. */
+    if ((sg->watch & sg->fired & PK_SGW_PROBE) != 0u && !sg->hold)
+        pk_sg_set_hold(sg, true);
     blk_speeds(sg, b);
     struct sg_seg sp;
     if (!seg_speeds(sg, b, &sp))
