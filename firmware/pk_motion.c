@@ -931,16 +931,23 @@ static void cycle_end(struct pk_machine *m, uint8_t result)
     memcpy(m->cycle_pos, p, sizeof m->cycle_pos);
 }
 
+/* A probing move whose probe has fired: decelerate as a feed hold, then
+ * drop the rest. */
+static void probe_hold(struct pk_machine *m)
+{
+    if (m->cycle == CYC_PROBE && (m->sg.fired & PK_SGW_PROBE) != 0u && !m->cycle_stop) {
+        m->cycle_stop = true;
+        pk_sg_set_hold(&m->sg, true);
+        m->replan = true;
+    }
+}
+
 /* Follow a running probing / homing move. */
 static void cycle_poll(struct pk_machine *m)
 {
     uint8_t f = m->sg.fired;
     if (m->cycle == CYC_PROBE) {
-        if ((f & PK_SGW_PROBE) != 0u && !m->cycle_stop) {
-            m->cycle_stop = true;   /* decelerate as a feed hold, then drop the rest */
-            pk_sg_set_hold(&m->sg, true);
-            m->replan = true;
-        }
+        probe_hold(m);
         if (m->cycle_stop) {
             if (m->sg.held && !m->sg.busy && pk_sg_pending(&m->sg) == 0)
                 cycle_end(m, PK_CYCLE_DONE);
@@ -1004,6 +1011,11 @@ void pk_machine_poll(struct pk_machine *m)
      * timing, since a full queue holds the next PK_MQ_CAP blocks of the
      * program); everything when the input is known to end here; during a
      * hold everything (it decelerates regardless of the plan). */
+    /* The probe may have fired since cycle_poll (its edge comes with the step
+     * event that frees a ring slot): hold before refilling that slot, as if
+     * the edge had come before this pass (what `plotkin sim` sees, and what
+     * keeps the chip's steps from depending on where in this pass it came). */
+    probe_hold(m);
     uint32_t count = pk_mq_count(&m->mq);
     uint32_t allowed = pk_planner_final(&m->planner);
     if (full && allowed < count - 1u)

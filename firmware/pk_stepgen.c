@@ -26,6 +26,7 @@
  * only where a phase ends inside the segment (the nominal and exit speeds are
  * cached per block): this is what lets an 8-bit chip keep the queue fed.
  */
+#include <stddef.h>
 #include <string.h>
 #include "pk_stepgen.h"
 #include "pk_motion.h"
@@ -208,6 +209,7 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
 {
     memset(sg, 0, sizeof *sg);
     sg->axes = axes;
+    sg->bres = (uint8_t)((1u << axes) - 1u); /* (until the first block: every axis, as the sums say) */
     sg->tick_hz = tick_hz;
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
@@ -606,6 +608,14 @@ static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
      * at the highest override */
     if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
         return false;
+    /* A probe that has fired holds from here on (the machine sets the same
+     * hold when it sees it): read after the room, so that a slot freed by
+     * the step event that closed the probe is never refilled without it
+     * (its edge is taken before the main loop runs again). On the chip the
+     * main loop otherwise saw the edge before or after this point as its
+     * timing fell, and ran one step more than `plotkin sim` now and then. */
+    if ((sg->watch & sg->fired & PK_SGW_PROBE) != 0u && !sg->hold)
+        pk_sg_set_hold(sg, true);
     blk_speeds(sg, b);
     struct sg_seg sp;
     if (!seg_speeds(sg, b, &sp))
@@ -858,18 +868,127 @@ static inline SG_INLINE uint8_t pulse_state(const struct pk_stepgen *sg, uint32_
 #define PK_SG_HW_PULSE 0
 #endif
 
-/* The ring's tail chunks once the current one is done (left == 0): run the
- * ones that are not steps (a line block's set-up, tool, spindle, waits) and
- * set up the next chunk of events. Returns with an event set up (left > 0;
- * the result is then unused), or with left == 0 and what the callback
- * returns. sg->earliest: no step edge before it (moved by a direction
- * change). Once per chunk: out of line, so that the step path does not pay
- * for its registers. */
-static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+/* One chunk of the ring's tail (c, at index t) that is not a plain STEPS
+ * chunk with no watch armed (isr_next_chunk takes those itself): a line
+ * block's set-up, tool, spindle, waits, SLOW events, or any chunk while a
+ * watch is armed. Returns 1 with *ret = what the callback returns (the tail
+ * moved or not as the chunk needs), or 0 once the chunk is done (the caller
+ * moves the tail). sg->earliest: no step edge before it (moved by a
+ * direction change). Out of line and cold: its registers stay off the
+ * STEPS path. */
+static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now,
+                             struct pk_sg_chunk *c, uint8_t t, uint32_t *ret)
 {
-    uint32_t ret;
     uint32_t *earliest = &sg->earliest;
-    const uint32_t all = (1u << sg->axes) - 1u;
+    if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
+        *ret = isr_watch_stop(sg);
+        return 1;
+    }
+    switch (c->kind) {
+    case PK_SGC_BLOCK:
+        if (c->arg != sg->dir_cur) {
+            uint32_t w;
+            if (pulse_state(sg, now, &w) == 1u) {
+                /* the last step's pulse is still high: change the
+                 * directions once it has ended (this chunk again) */
+                *ret = w;
+                return 1;
+            }
+        }
+        if (c->spindle != sg->spindle_cur) {
+            int r = pk_hal_spindle_write(hal, c->spindle);
+            if (r != 0 && r != PK_HAL_ENOSYS) {
+                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                return 1;
+            }
+            sg->spindle_cur = c->spindle;
+        }
+        {
+            uint8_t bres = 0u, bit = 1u;
+            for (unsigned i = 0; i < sg->axes; i++, bit = (uint8_t)(bit << 1)) {
+                const uint32_t inc = c->u.blk.inc[i];
+                const int32_t acc = c->u.blk.acc0[i];
+                sg->inc[i] = inc;
+                sg->acc[i] = acc;
+                if (inc != 0u || acc >= 0)
+                    bres |= bit;
+            }
+            sg->bres = bres;
+        }
+        sg->period = c->u.blk.period;
+        if (c->arg != sg->dir_cur) {
+            const uint32_t all = (1u << sg->axes) - 1u;
+            if (pk_hal_dir_write(hal, all, c->arg) != 0) {
+                *ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
+                return 1;
+            }
+            sg->dir_cur = c->arg;
+            uint32_t e = now + sg->dir_setup_ticks;
+            if ((int32_t)(e - *earliest) > 0)
+                *earliest = e;
+        }
+        return 0;
+    case PK_SGC_STEPS:
+        sg->left = c->n;
+        t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+        sg->I = c->u.st.c1;
+        sg->A = c->u.st.c2;
+        sg->v_um_s = c->v_um_s;
+        return 0;
+    case PK_SGC_SLOW: {
+        /* one event after a long interval: whole ticks + Q16 fraction
+         * (no ramp); a very long one is waited out in parts first */
+        uint32_t tk = c->u.ticks;
+        if (tk >= 2u * SG_SLOW_SPLIT) {
+            c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
+            sg->next_t += SG_SLOW_SPLIT;
+            sg->v_um_s = c->v_um_s;
+            *ret = sg->next_t - now;
+            return 1;
+        }
+        sg->left = 1;
+        sg->next_t += tk;
+        t_add(sg, (int32_t)c->n);
+        sg->I = 0;
+        sg->A = 0;
+        sg->v_um_s = c->v_um_s;
+        return 0;
+    }
+    default: {
+        if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
+            *ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
+            return 1;
+        }
+        if (c->kind == PK_SGC_SPINDLE) {
+            int r = pk_hal_spindle_write(hal, c->spindle);
+            if (r != 0 && r != PK_HAL_ENOSYS) {
+                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+                return 1;
+            }
+            sg->spindle_cur = c->spindle;
+        }
+        uint32_t w = c->u.ticks;
+        if (w == 0u)
+            w = 1u;
+        if (w == PK_HAL_TIMER_STOP)
+            w--;
+        sg->v_um_s = 0u;
+        PK_BARRIER();
+        sg->tail = (uint8_t)(t + 1u);
+        sg->next_t = now + w;
+        sg->next_f = 0u;
+        *ret = w;
+        return 1;
+    }
+    }
+}
+
+/* The ring's tail chunks once the current one is done (left == 0): run the
+ * ones that are not steps (isr_chunk) and set up the next chunk of events.
+ * Returns with an event set up (left > 0; the result is then unused), or
+ * with left == 0 and what the callback returns. */
+static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
     for (;;) {
         uint8_t t = sg->tail;
         uint8_t h = sg->head;
@@ -877,111 +996,45 @@ static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct p
         if (t == h) {
             sg->v_um_s = 0u;
             sg->busy = false;
-            ret = PK_HAL_TIMER_STOP;
-            return ret;
+            return PK_HAL_TIMER_STOP;
         }
         struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (sg->watch != 0u && watch_chunk(sg, hal, c->kind)) {
-            ret = isr_watch_stop(sg);
+        uint32_t ret;
+        if (isr_chunk(sg, hal, now, c, t, &ret))
             return ret;
-        }
-        switch (c->kind) {
-        case PK_SGC_BLOCK:
-            if (c->arg != sg->dir_cur) {
-                uint32_t w;
-                if (pulse_state(sg, now, &w) == 1u) {
-                    /* the last step's pulse is still high: change the
-                     * directions once it has ended (this chunk again) */
-                    ret = w;
-                    return ret;
-                }
-            }
-            if (c->spindle != sg->spindle_cur) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS) {
-                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return ret;
-                }
-                sg->spindle_cur = c->spindle;
-            }
-            for (unsigned i = 0; i < sg->axes; i++) {
-                sg->inc[i] = c->u.blk.inc[i];
-                sg->acc[i] = c->u.blk.acc0[i];
-            }
-            sg->period = c->u.blk.period;
-            if (c->arg != sg->dir_cur) {
-                if (pk_hal_dir_write(hal, all, c->arg) != 0) {
-                    ret = isr_alarm(sg, PK_ALARM_DIR_WRITE);
-                    return ret;
-                }
-                sg->dir_cur = c->arg;
-                uint32_t e = now + sg->dir_setup_ticks;
-                if ((int32_t)(e - *earliest) > 0)
-                    *earliest = e;
-            }
-            break;
-        case PK_SGC_STEPS:
-            /* first interval c0, then c1 changing by c2 per event: the
-             * difference c0 - c1 is added once here, so that every event
-             * is the same two adds */
-            sg->left = c->n;
-            t_add(sg, c->u.st.c0);
-            t_add(sg, -c->u.st.c1);
-            sg->I = c->u.st.c1;
-            sg->A = c->u.st.c2;
-            sg->v_um_s = c->v_um_s;
-            break;
-        case PK_SGC_SLOW: {
-            /* one event after a long interval: whole ticks + Q16 fraction
-             * (no ramp); a very long one is waited out in parts first */
-            uint32_t tk = c->u.ticks;
-            if (tk >= 2u * SG_SLOW_SPLIT) {
-                c->u.ticks = tk - SG_SLOW_SPLIT; /* the ISR's slot until the tail moves */
-                sg->next_t += SG_SLOW_SPLIT;
-                sg->v_um_s = c->v_um_s;
-                ret = sg->next_t - now;
-                return ret;
-            }
-            sg->left = 1;
-            sg->next_t += tk;
-            t_add(sg, (int32_t)c->n);
-            sg->I = 0;
-            sg->A = 0;
-            sg->v_um_s = c->v_um_s;
-            break;
-        }
-        default: {
-            if (c->kind == PK_SGC_TOOL && pk_hal_tool_write(hal, c->arg) != 0) {
-                ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
-                return ret;
-            }
-            if (c->kind == PK_SGC_SPINDLE) {
-                int r = pk_hal_spindle_write(hal, c->spindle);
-                if (r != 0 && r != PK_HAL_ENOSYS) {
-                    ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                    return ret;
-                }
-                sg->spindle_cur = c->spindle;
-            }
-            uint32_t w = c->u.ticks;
-            if (w == 0u)
-                w = 1u;
-            if (w == PK_HAL_TIMER_STOP)
-                w--;
-            sg->v_um_s = 0u;
-            PK_BARRIER();
-            sg->tail = (uint8_t)(t + 1u);
-            sg->next_t = now + w;
-            sg->next_f = 0u;
-            ret = w;
-            return ret;
-        }
-        }
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
         if (sg->left != 0u)
             return 0u;
     }
+}
+
+/* isr_chunks, with its common case first: a STEPS chunk (nearly all of
+ * them) with no watch armed is set up here, in few registers; anything else
+ * goes on to isr_chunks (a tail call). Once per chunk: out of line, so that
+ * the step path does not pay for its registers. */
+static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
+{
+    uint8_t t = sg->tail;
+    uint8_t h = sg->head;
+    PK_BARRIER(); /* read the chunk only after seeing it published */
+    if (t != h) {
+        const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
+        if (c->kind == PK_SGC_STEPS && c->n != 0u && sg->watch == 0u) {
+            /* first interval c0, then c1 changing by c2 per event: the
+             * difference c0 - c1 (|c0 - c1| < 2^30) is added once here, so
+             * that every event is the same two adds */
+            sg->left = c->n;
+            t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+            sg->I = c->u.st.c1;
+            sg->A = c->u.st.c2;
+            sg->v_um_s = c->v_um_s;
+            PK_BARRIER(); /* done reading the slot before handing it back */
+            sg->tail = (uint8_t)(t + 1u);
+            return 0u;
+        }
+    }
+    return isr_chunks(sg, hal, now);
 }
 
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
@@ -1022,22 +1075,80 @@ static SG_COLD void isr_restart(struct pk_stepgen *sg, const struct pk_hal *hal,
     }
 }
 
-/* The axes due at this event (Bresenham over the block's events). */
-static inline SG_INLINE uint32_t isr_bresenham(struct pk_stepgen *sg)
+/* The step path's fields within the first 64 bytes (struct pk_stepgen). */
+_Static_assert(offsetof(struct pk_stepgen, pos) + sizeof(((struct pk_stepgen *)0)->pos) <= 64u,
+               "the step path's state must stay within the first 64 bytes of struct pk_stepgen");
+
+/* One axis of the Bresenham step (isr_bresenham): unrolled, so that every
+ * bit and field is a constant (no shift loops, fixed displacements). */
+#define SG_BRES_AXIS(sg, i, period, mask)                                                          \
+    do {                                                                                           \
+        int32_t a_ = (sg)->acc[i] + (int32_t)(sg)->inc[i];                                         \
+        if (a_ >= 0) {                                                                             \
+            a_ -= (period);                                                                        \
+            (mask) = (uint8_t)((mask) | (1u << (i)));                                              \
+        }                                                                                          \
+        (sg)->acc[i] = a_;                                                                         \
+    } while (0)
+
+/* The axes due at this event (Bresenham over the block's events). Only the
+ * axes of sg->bres: an axis driven with no increment and its accumulator
+ * below 0 would neither step nor change it (and axes at and beyond sg->axes
+ * never step). PK_AXES is 2 or 3 (pk_refine.h). */
+static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 {
-    uint32_t mask = 0;
+    uint8_t mask = 0u;
+    const uint8_t b = sg->bres;
     const int32_t period = (int32_t)sg->period;
-    for (unsigned i = 0; i < PK_AXES; i++) {
-        if (i >= sg->axes)
-            break;
-        int32_t a = sg->acc[i] + (int32_t)sg->inc[i];
-        if (a >= 0) {
-            a -= period;
-            mask |= 1u << i;
-        }
-        sg->acc[i] = a;
-    }
+    if (b & 1u)
+        SG_BRES_AXIS(sg, 0, period, mask);
+    if (b & 2u)
+        SG_BRES_AXIS(sg, 1, period, mask);
+#if PK_AXES > 2
+    if (b & 4u)
+        SG_BRES_AXIS(sg, 2, period, mask);
+#endif
     return mask;
+}
+
+/* The emitted position: one step on every axis of mask, in its direction. */
+static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint8_t dir)
+{
+    if (mask & 1u)
+        sg->pos[0] += (dir & 1u) ? 1 : -1;
+    if (mask & 2u)
+        sg->pos[1] += (dir & 2u) ? 1 : -1;
+#if PK_AXES > 2
+    if (mask & 4u)
+        sg->pos[2] += (dir & 4u) ? 1 : -1;
+#endif
+}
+
+/* The HAL's step_pulse on the step path. A build that knows its HAL names
+ * the function (PK_SG_PULSE_FN, e.g. the AVR boards: pk_avr_step_pulse8,
+ * same contract as ops->step_pulse with 8-bit masks and a 16-bit width,
+ * min(pulse_ticks, 65,535)) and the step path calls it directly: no table
+ * load, no indirect call, narrow arguments. The table's step_pulse must
+ * then be that HAL's (it decides hw_pulse). */
+#ifdef PK_SG_PULSE_FN
+int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
+#define SG_STEP_PULSE(hal, mask, levels, w)                                                        \
+    PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (uint16_t)((w) > 0xFFFFu ? 0xFFFFu : (w)))
+#else
+#define SG_STEP_PULSE(hal, mask, levels, w) (hal)->ops->step_pulse((hal)->ctx, (mask), (levels), (w))
+#endif
+
+/* A step event on a HAL without step_pulse: the core raises the lines and
+ * lowers them itself, pulse_ticks later (one more call). Inline for such a
+ * HAL (the host's); out of line in a build whose HAL has step_pulse
+ * (PK_SG_HW_PULSE=1), which keeps its registers off the step path. */
+static SG_PULSE_LOW uint32_t isr_step_sw(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t mask)
+{
+    if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
+        return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+    isr_count(sg, mask, sg->dir_cur);
+    sg->phase = PK_SGP_PULSE;
+    return sg->pulse_ticks;
 }
 
 uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
@@ -1050,39 +1161,32 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
     uint32_t earliest = now;
     const uint8_t phase = sg->phase;
     if (phase == PK_SGP_STEP_DUE) {
-        uint32_t mask = isr_bresenham(sg);
+        uint8_t mask = isr_bresenham(sg);
         /* armed, and something to do: inputs to read, a watch fired, an axis locked */
         if (sg->watch != 0u && (sg->poll_in | sg->fired | sg->lock) != 0u) {
             int32_t w = watch_event(sg, hal, mask);
             if (w < 0)
                 return isr_watch_stop(sg);
-            mask = (uint32_t)w;
+            mask = (uint8_t)w;
         }
-        const uint8_t dir = sg->dir_cur;
-        if (!sg->hw_pulse && mask != 0u) {
-            /* the core lowers the lines itself: one more call, pulse_ticks on
-             * (an event with no step, one of a block's fine events, raises
-             * nothing and has no pulse to end: a reset then finds the
-             * machine between events, not in a pulse with no line high) */
-            if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
-                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-            for (unsigned i = 0; i < sg->axes; i++)
-                if (mask & (1u << i))
-                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
-            sg->phase = PK_SGP_PULSE;
-            return sg->pulse_ticks;
-        }
+        if (!sg->hw_pulse && mask != 0u)
+            return isr_step_sw(sg, hal, mask);
+        /* (an event with no step, one of a block's fine events, raises
+         * nothing and has no pulse to end, on either kind of HAL: a reset
+         * then finds the machine between events, not in a pulse with no
+         * line high: finding M10) */
         /* the backend ends the pulse: on to the next event in this call */
         sg->phase = PK_SGP_GAP;
         if (mask != 0u) {
-            if (hal->ops->step_pulse(hal->ctx, mask, mask & ~hal->step_invert, sg->pulse_ticks) != 0)
-                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
-            earliest = now + 2u * sg->pulse_ticks;
+            const uint32_t pt = sg->pulse_ticks;
+            earliest = now + 2u * pt;
             sg->low_until = earliest;
             sg->pulse_hot = 1u;
-            for (unsigned i = 0; i < PK_AXES; i++)
-                if (mask & (1u << i))
-                    sg->pos[i] += (dir & (1u << i)) ? 1 : -1;
+            if (SG_STEP_PULSE(hal, mask, (uint8_t)(mask & ~hal->step_invert), pt) != 0) {
+                sg->pulse_hot = 0u; /* (no pulse was raised) */
+                return isr_alarm(sg, PK_ALARM_STEP_WRITE);
+            }
+            isr_count(sg, mask, sg->dir_cur);
         }
     } else if (phase == PK_SGP_PULSE) {
         uint32_t r = isr_pulse_low(sg, hal);

@@ -155,19 +155,24 @@ enum pk_sg_phase { PK_SGP_GAP = 0, PK_SGP_STEP_DUE = 1, PK_SGP_PULSE = 2 };
 
 /** Step generator state (private members; use the functions). */
 struct pk_stepgen {
-    /* ---- configuration (set at init, read-only afterwards) ---- */
-    uint8_t axes;
-    uint32_t tick_hz;
-    uint32_t pulse_ticks, dir_setup_ticks;
-
-    /* ---- timer-side state (ISR only, except as noted). First in the struct:
-     *      an AVR reaches the first 64 bytes with one displacement load ---- */
+    /* ---- the step path's state (ISR only, except as noted). First in the
+     *      struct, in the order the step path uses it: an AVR reaches the
+     *      first 64 bytes through its pointer with one displacement load or
+     *      store (ldd/std Z+q, q <= 63), and for 3 axes everything a step
+     *      event touches is there (pos[2] is bytes 60..63) ---- */
     uint8_t phase;             /**< enum pk_sg_phase */
     uint8_t dir_cur;           /**< direction lines as last written (logical) */
     uint8_t hw_pulse;          /**< the HAL ends step pulses itself (step_pulse):
                                     one callback per step event */
     uint8_t pulse_hot;         /**< hw_pulse: a pulse raised at low_until - 2 pulse_ticks
                                     may still be high or in its low time */
+    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
+    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed (see below) */
+    uint8_t bres;              /**< axes whose Bresenham step can fire in the block
+                                    running: of the axes driven, those with an
+                                    increment or an accumulator >= 0 (the others keep
+                                    theirs, below 0, to the block's end) */
     uint16_t next_f;           /**< fraction of a tick of next_t, Q16 */
     uint16_t left;             /**< events left in the current chunk */
     uint32_t next_t;           /**< tick of the last scheduled event (the HAL
@@ -175,16 +180,21 @@ struct pk_stepgen {
     int32_t I, A;              /**< interval and its change per event, ticks Q16
                                     (chunks are at most PK_SG_CHUNK_TICKS_MAX long,
                                     so |I| < 2^30) */
-    uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
-    uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
     uint32_t period;           /**< Bresenham period of the block running */
     int32_t acc[PK_AXES];      /**< Bresenham accumulators: an axis steps at an
                                     event when its accumulator reaches 0 */
     uint32_t inc[PK_AXES];     /**< Bresenham increments of the block running */
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
-    volatile uint8_t watch;    /**< enum pk_sg_watch bits armed (see below) */
-    volatile uint8_t alarm;    /**< enum pk_alarm latched by the ISR (MAIN reads) */
-    bool restart;              /**< ISR: first call after (re)arming: rebase time */
+    uint32_t pulse_ticks;      /**< configuration: step pulse width, ticks (>= 1) */
+    uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
+    uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
+
+    /* ---- configuration (set at init, read-only afterwards) ---- */
+    uint8_t axes;              /**< axes driven */
+    uint32_t tick_hz;
+    uint32_t dir_setup_ticks;
+
+    /* ---- timer-side state the step path does not touch ---- */
     uint16_t spindle_cur;      /**< spindle value as last written */
     uint8_t mask_due;          /**< axes to step at the pending edge */
     volatile uint8_t busy;     /**< 1 from timer_start until the ISR stops the timer */

@@ -70,19 +70,29 @@ static inline __attribute__((always_inline)) uint32_t now32(const struct pk_avr 
     uint16_t hi = a->ovf_lo;
     if ((PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_TOV)) && lo < 0x8000u)
         hi++;
-    return (uint32_t)hi << 16 | lo;
+    /* hi:lo as two register moves (avr-gcc assembles (uint32_t)hi << 16 | lo
+     * through a dozen, twice per step interrupt); multi-byte values sit in
+     * even register pairs, as movw needs */
+    uint32_t v;
+    __asm__("movw %A0, %A1\n\tmovw %C0, %A2" : "=&r"(v) : "r"(lo), "r"(hi));
+    return v;
 }
 
 /* Write the compare register for next (d = next - now > LEAD ticks ahead).
  * Returns 1 if the compare will fire for it, 0 if the counter passed it
- * meanwhile. (Interrupts off.) At least 2 ticks must be left after the
- * write: a compare written for the counter's current or next value may not
- * fire until the next wrap (on simavr 1.6 at least). */
+ * meanwhile. (Interrupts off.) At least 4 ticks must be left after the
+ * write: a compare written for a value the counter reaches within a tick or
+ * two may not fire until the next wrap, 32.8 ms later (simavr 1.6 at least;
+ * with 2 ticks, the margin this once had, timer_start's first arm after an
+ * underrun missed now and then once the clock read got a few cycles faster:
+ * the strokes drawing on mega-ramps took 10.13 s on the chip instead of
+ * 9.73 s). A refused arm costs a retry with a wider margin (timer_start) or
+ * a wait of a few ticks inside the interrupt (service). */
 static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a, uint32_t d)
 {
     uint16_t at = (uint16_t)a->next;
     PK_BOARD_STEP_OCR = at;
-    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 1;
+    return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 3;
 }
 
 /* The pulse's lines back to idle. Interrupts off. */
@@ -155,17 +165,17 @@ ISR(PK_BOARD_STEP_OVF_vect)
         a->ovf_hi++;
 }
 
-int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
+int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks)
 {
     struct pk_avr *a = ctx;
-    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : (uint16_t)width_ticks;
+    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : width_ticks;
     uint8_t s = SREG;
     cli();
     if (a->pulse_on)
         pulse_end(a); /* (the core never overlaps pulses) */
-    pk_board_step_write((uint8_t)mask, (uint8_t)levels);
+    pk_board_step_write(mask, levels);
     a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_mask = (uint8_t)mask;
+    a->pulse_mask = mask;
     a->pulse_idle = (uint8_t)(~levels & mask);
     if (w <= PK_AVR_PULSE_SPIN) {
         while (!pulse_due(a))
@@ -178,6 +188,12 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
     }
     SREG = s;
     return PK_HAL_OK;
+}
+
+int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
+{
+    return pk_avr_step_pulse8(ctx, (uint8_t)mask, (uint8_t)levels,
+                              width_ticks > 0xFFFFu ? 0xFFFFu : (uint16_t)width_ticks);
 }
 
 void pk_avr_timer_init(struct pk_avr *a)
