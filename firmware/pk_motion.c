@@ -633,20 +633,19 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     for (unsigned i = 0; i < axes; i++)
         d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
-    /* The exact motion this block's time covers: from where the last block
-     * ended, through any moves without a whole step since. Those took no
-     * time, so a step right after one came as early as its exact crossing
-     * while the time for the way there was never given (finding M6: one
-     * interval at 1.2 times the axis's bound). Their way is now the block's
-     * lead: the first lead_q8 of its length, run at its speed with no event
-     * (none of them crosses a half step), and its axes' limits hold for the
-     * whole exact motion. The steps themselves still follow the exact path
-     * from target_um. */
+    /* Moves with no whole step since the last block (target_um moved on
+     * from timed_um) took no time, so a step right after one came as early
+     * as its exact crossing while the time for the way there was never
+     * given (finding M6: one interval at 1.2 times the axis's bound). Their
+     * way is now the block's lead: the first lead_q8 of its length, run at
+     * its speed with no event (none of them crosses a half step). The steps
+     * follow the exact path from target_um after it, and the axes' limits
+     * hold for that part (d_um, over the steps' length: pk_planner.h). */
     uint32_t lead_q8 = 0;
     {
         uint64_t ss = 0;
         for (unsigned i = 0; i < axes; i++) {
-            d_um[i] = p[i] - m->timed_um[i];
+            d_um[i] = p[i] - m->target_um[i];
             /* |skip| < 2^23 µm: Q4 squares < 2^54, three of them < 2^56 */
             const int64_t sk = (int64_t)(m->target_um[i] - m->timed_um[i]) * 16;
             ss += (uint64_t)(sk * sk);

@@ -272,8 +272,10 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
             continue;
         /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
          * (saturated quotients: only their minimum with the caps counts) */
-        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], len_q8, ad);
-        uint32_t al = pk_muldiv_u32(p->lim.accel[i], len_q8, ad);
+        /* (over the steps' part of the block: its lead has no step, and
+         * the steps and their exact crossings all fall after it) */
+        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], steps_q8, ad);
+        uint32_t al = pk_muldiv_u32(p->lim.accel[i], steps_q8, ad);
         if (vl < v_lim)
             v_lim = vl;
         if (al < acc)

@@ -92,7 +92,8 @@ void pk_planner_break(struct pk_planner *p);
  *                 up to one step (finding M6)
  * @param lead_q8  way before the steps, µm Q8 (moves with no whole step since
  *                 the last block, which took no time): the block's length is
- *                 its steps' length plus this, and no event falls in it
+ *                 its steps' length plus this, and no event falls in it; the
+ *                 axes' limits hold over the steps' length alone
  * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
  *                 allow, scaled by the rapid override; else the feed override
  *                 applies)
