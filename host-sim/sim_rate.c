@@ -80,8 +80,8 @@ void pk_rate_init(struct pk_rate *r, const struct pk_rate_cfg *cfg)
         r->cfg.acc_min_s = 0.020;
     if (!(r->cfg.q_shared > 0.0))
         r->cfg.q_shared = 0.5;
-    if (!(r->cfg.q_alone > 0.0))
-        r->cfg.q_alone = 0.5;
+    if (!(r->cfg.q_alone >= 0.0))
+        r->cfg.q_alone = 0.0;
     if (!(r->cfg.tau_ticks > 0.0))
         r->cfg.tau_ticks = 1.0;
     r->scale = 1.0;

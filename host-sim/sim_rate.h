@@ -8,15 +8,15 @@
  * from it by at most
  *   - tau ticks in time (the step generator's timer rounding; default 1;
  *     `plotkin sim` adds the direction set-up $206, which can delay an edge), and
- *   - q_i steps in position: 1/2 (q_shared for a step sharing its tick with
- *     another axis, q_alone for one alone on it; both default to 1/2): every
- *     axis steps at the first Bresenham event after its exact position
- *     crosses a half step, so the position of a step instant is within 1/2
- *     step of the ideal line. A step alone on its tick used to be taken as
- *     exact (q = 0: the dominant axis, stepping at every event); since a
- *     block has 2 events per exact step of every axis (finding M6,
- *     pk_motion.c) an event may step a minor axis alone, and the dominant
- *     one is rounded like the others, so that proof no longer holds.
+ *   - q_i steps in position: q_alone for a step alone on its tick, q_shared
+ *     (default 1/2) for a step sharing its tick with another axis (it may be
+ *     a minor axis: Bresenham rounds its position to the nearest step at
+ *     each event; the position of a step instant is then within 1/2 step of
+ *     the ideal line). q_alone defaults to 0: a step generator whose events
+ *     are the dominant axis's steps. plotkin's is not (since finding M6 a
+ *     block has 2 events per exact step of every axis, so an event may step
+ *     a minor axis alone and the dominant axis is rounded like the others):
+ *     `plotkin sim` sets q_alone = 1/2 (sim_run.c).
  * Every figure below is a function of whole ticks and whole steps, computed
  * with these bounds in interval arithmetic: "lo" is the least value the
  * ideal motion can have had given the trace, "hi" the largest.
@@ -76,7 +76,7 @@ struct pk_rate_cfg {
     unsigned acc_steps;        /**< intervals per velocity window, at least (16) */
     double acc_min_s;          /**< duration of a velocity window, at least (0.020 s) */
     double q_shared;           /**< position bound of a step sharing its tick, steps (0.5) */
-    double q_alone;            /**< position bound of a step alone on its tick, steps (0.5) */
+    double q_alone;            /**< position bound of a step alone on its tick, steps (0) */
     double tau_ticks;          /**< time bound of a step instant, ticks (1) */
     double v_limit;            /**< speed limit in scaled units/s for the counts (0: none) */
     double a_limit;            /**< acceleration limit, scaled units/s^2 (0: none) */

@@ -194,7 +194,10 @@ int pk_sim_start(const struct pk_sim_opts *o, struct pk_sim_result *r)
     r->decoder.on_step_arg = r;
     /* a step edge can be late by the timer's rounding (1 tick) and by the
      * direction set-up the step generator waits for before it ($206) */
-    struct pk_rate_cfg rc = { .tick_hz = c->tick_hz, .tau_ticks = 1.0 + (double)r->mcfg.dir_setup_ticks };
+    /* q_alone = 1/2: every axis is rounded to the block's events, also a
+     * step alone on its tick (sim_rate.h, finding M6) */
+    struct pk_rate_cfg rc = { .tick_hz = c->tick_hz, .tau_ticks = 1.0 + (double)r->mcfg.dir_setup_ticks,
+                              .q_alone = 0.5 };
     for (unsigned a = 0; a < PK_AXES; a++)
         pk_rate_init(&r->rate[a], &rc);
     if (o->trace_csv != NULL)
