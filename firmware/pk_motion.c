@@ -653,14 +653,10 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         if (ss != 0)
             lead_q8 = pk_isqrt64(ss) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
     }
+    /* (a turn's acceleration share goes to this new block only, never to one
+     * already queued, whose exit may be committed: findings M7, M8,
+     * pk_planner.c) */
     uint8_t flags = m->junction_sharp ? PK_PLAN_SHARP : 0u;
-    /* The only queued block is being cut, or the machine is moving and that
-     * block is next: its entry speed is already committed (the exit of what
-     * was taken, planned with this block's acceleration), so its
-     * acceleration must not drop (finding M7: a turn after it halved it,
-     * and the speed carried through it at 3.9x the next axis's rate). */
-    if ((m->sg.prep_active || m->sg.busy) && pk_mq_count(&m->mq) == 1u)
-        flags |= PK_PLAN_PREV_LOCKED;
     int r = pk_planner_add_line(&m->planner, &m->mq, d_q8, n, d_um, lead_q8, feed, flags);
     if (r < 0)
         return -1;
@@ -672,7 +668,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
      * 128, and qb - 256 ts = 256 n + (qb - 256 st) is below 2^30 in
      * magnitude: 32 bits. */
     int32_t f_ax[PK_AXES] = { 0 }, d_ax[PK_AXES] = { 0 };
-    uint32_t fine = 0; /* events a minor axis needs (below) */
+    uint32_t fine = 0; /* events the axes need: 2 per exact step (below) */
     for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0)
             continue;
@@ -702,9 +698,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     }
     uint32_t ev = mx;
     if (fine > mx && pk_sg_fine_ok(mx, b->len_q8, b->v_req ? (b->v_req < b->v_lim ? b->v_req : b->v_lim) : b->v_lim))
-        ev = fine > PK_SG_EVENTS_MAX ? PK_SG_EVENTS_MAX : fine;
-    if (ev < mx)
-        ev = mx;
+        ev = fine > PK_SG_EVENTS_MAX ? PK_SG_EVENTS_MAX : fine; /* (>= mx: mx <= 2^21) */
     b->events = ev;
     for (unsigned i = 0; i < axes; i++) {
         if (n[i] == 0) {

@@ -315,19 +315,12 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         if (a0 != NULL && a0->type == PK_BLK_LINE && a0->v2_nom > nom)
             nom = a0->v2_nom;
         if (turn < nom) {
-            /* the turn is spread over the shorter neighbour: that block shares
-             * its acceleration with it (on the longer one the two come one
-             * after the other, so any window of time averages them) */
-            bool b_short = ulen_q8 <= p->prev_len_q8;
-            if (b_short) {
-                b->curved = 1;
-                if (b->accel > along)
-                    b->accel = along;
-            } else {
-                b->curved = 1; /* the shorter one is running already: this one shares */
-                if (b->accel > along)
-                    b->accel = along;
-            }
+            /* the new block shares its acceleration with the turn, whichever
+             * neighbour is shorter: the block before it may already have its
+             * exit committed on its own acceleration (findings M7, M8) */
+            b->curved = 1;
+            if (b->accel > along)
+                b->accel = along;
         } else if (turn != UINT64_MAX && !(flags & PK_PLAN_SHARP)) {
             /* A vertex of a smoothed curve that does not bind at the
              * nominal speed still turns: at v its jump is v |u2 - u1| and

@@ -109,12 +109,9 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
                         uint32_t lead_q8, pk_um_min_t feed, uint8_t flags);
 /** pk_planner_add_line flags. */
 enum {
-    PK_PLAN_SHARP = 1,      /**< the junction with the previous move is a programmed
+    PK_PLAN_SHARP = 1       /**< the junction with the previous move is a programmed
                                  corner (Grbl's junction deviation applies); else it is
                                  a vertex of a smoothed curve (velocity jump capped) */
-    PK_PLAN_PREV_LOCKED = 2 /**< the previous block is being cut into chunks, or its
-                                 entry speed is committed (the machine moves and it is
-                                 next): its acceleration can no longer be changed */
 };
 
 /** Append a stop block (PK_BLK_PEN with tool level, PK_BLK_SPINDLE with value

@@ -77,15 +77,14 @@
 #define PK_SG_EVENTS_MAX (((uint32_t)1 << 22) - 1u)
 
 /**
- * Fine events (finding M6). A block whose minor axis moves more than half as
- * many steps as the block has events gets 2 events per exact step of that
- * axis, so that no step lags its exact crossing by more than half the axis's
- * own interval (pk_motion.c plan_piece has the argument). That costs timer
- * callbacks with no step; a board whose callback cannot afford them at speed
- * sets PK_SG_FINE_HZ: blocks whose dominant axis steps faster than this at
- * their nominal speed (steps/s, before overrides) keep one event per
- * dominant step, and their minor axes lag by up to one event (1/PK_SG_FINE_HZ
- * at most). 0 (the default): fine events at every speed.
+ * Fine events (finding M6). A block gets 2 events per exact step of every
+ * axis it moves, so that no step lags its exact crossing by more than half
+ * the axis's own interval (pk_motion.c plan_piece has the argument). That
+ * costs timer callbacks with no step; a board whose callback cannot afford
+ * them at speed sets PK_SG_FINE_HZ: blocks whose dominant axis steps faster
+ * than this at their nominal speed (steps/s, before overrides) keep one
+ * event per dominant step, and their axes lag by up to one event
+ * (1/PK_SG_FINE_HZ at most). 0 (the default): fine events at every speed.
  */
 #ifndef PK_SG_FINE_HZ
 #define PK_SG_FINE_HZ 0u
