@@ -640,7 +640,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
      * way is now the block's lead: the first lead_q8 of its length, run at
      * its speed with no event (none of them crosses a half step). The steps
      * follow the exact path from target_um after it, and the axes' limits
-     * hold for that part (d_um, over the steps' length: pk_planner.h). */
+     * hold for that part (d_um, over its exact length: pk_planner.h). */
     uint32_t lead_q8 = 0;
     {
         uint64_t ss = 0;

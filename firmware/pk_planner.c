@@ -19,17 +19,21 @@
  * decelerate to the next one's entry; the forward pass caps them by what
  * acceleration from the current speed can reach.
  *
- * Planned in steps. A block's length (its time) and its axis limits are
- * those of the steps it makes (Grbl does the same), not of the requested
- * micrometres: a move
- * shorter than a step adds no block and its distance is not lost, so the
- * next block never carries more steps than its time allows (finding M3: at
- * coarse steps/mm the old planner gave a block the time of its micrometres
- * and the steps of everything skipped before it). Only the junction and
- * curvature limits use the requested direction: the direction of a few whole
- * steps is noise (a 78 µm chord at 80 steps/mm is 6 steps: up to 0.16 rad
- * off), which would slow a smooth curve to a crawl; the step generator keeps
- * every axis within half a step of the requested segment anyway.
+ * Planned on the exact motion, stepped at its crossings. A block's length
+ * (its time), its direction and its axes' limits are those of its exact
+ * (requested) displacement; its whole steps only count the half-step
+ * crossings that fall in it, and each axis steps at its exact position's
+ * crossing (pk_motion.c), so the step times are those of the motion planned
+ * here. A move with no whole step adds no block: its way is the next
+ * block's lead, time without events, so no skipped distance is run in no
+ * time (finding M3: the old planner gave a block the time of its own
+ * micrometres and the steps of everything skipped before it). Timing blocks
+ * by their whole steps instead (as from the M3 fix to M12) puts a length up
+ * to a step per axis away from the motion the steps follow: at 1 step/mm a
+ * straight line ran 6 times slower than its feed, and the direction of a
+ * few whole steps is noise (a 78 µm chord at 80 steps/mm is 6 steps: up to
+ * 0.16 rad off; one Y step then one X step reads as a 90 degree turn), which
+ * slows a smooth curve to a crawl.
  *
  * Entry ceilings. At a vertex the velocity turns from v u1 to v u2. Grbl's
  * junction deviation allows the jump a circle of radius r, deviating by
@@ -237,10 +241,31 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     uint32_t steps_q8 = pk_isqrt64(ss);
     if (steps_q8 == 0)
         steps_q8 = 1;
-    /* the block's length: its steps' and the lead before them (< 2^31) */
-    if (lead_q8 > 0x7FFFFFFFu - steps_q8)
-        lead_q8 = 0x7FFFFFFFu - steps_q8;
-    const uint32_t len_q8 = steps_q8 + lead_q8;
+    /* The block is timed by its EXACT displacement, not its whole steps: an
+     * axis steps where its exact position crosses a half step (pk_motion.c),
+     * so its steps' times are those of the exact motion, and a block's whole
+     * steps only count the crossings inside it. At a coarse steps/mm the two
+     * differ by up to a step per axis: X at 1 step/mm moving 282 µm in a
+     * piece that makes one whole X step (1 mm), or one Y step of 7 µm while
+     * X moves most of a millimetre. Timed and limited by the steps, such
+     * blocks ran a straight line 6 times slower than its feed (finding M12);
+     * limited by the steps over a length that was not the exact one, an
+     * axis ran over its rate (M6, M11). (|d_um| < 2^23: each square < 2^62,
+     * the sum of three < 2^64. A block with a step has an exact
+     * displacement: the steps' length is only a fallback.) */
+    uint64_t se = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        const uint64_t e = (uint64_t)(d_um[i] < 0 ? -(int64_t)d_um[i] : d_um[i]) << 8;
+        se += e * e;
+    }
+    const uint32_t exact_q8 = pk_isqrt64(se);
+    uint32_t span_q8 = exact_q8 != 0 ? exact_q8 : steps_q8;
+    if (span_q8 > 0x7FFFFFFFu)
+        span_q8 = 0x7FFFFFFFu;
+    /* the block's length: the exact part and the lead before it (< 2^31) */
+    if (lead_q8 > 0x7FFFFFFFu - span_q8)
+        lead_q8 = 0x7FFFFFFFu - span_q8;
+    const uint32_t len_q8 = span_q8 + lead_q8;
     struct pk_block *b = pk_mq_push(q);
     b->type = PK_BLK_LINE;
     b->events = events;
@@ -248,34 +273,33 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->lead_q8 = lead_q8;
     uint32_t v_lim = PK_UM_MIN_MAX;
     uint32_t acc = PK_UM_S2_MAX;
-    /* the direction and length of the steps, for the junction and curvature */
+    /* The direction and length of the exact displacement, for the junction
+     * and curvature: the steps follow the exact position, so the axes'
+     * velocities turn as it does. The whole steps' direction is that
+     * quantised to a step (at 1 step/mm a piece of a straight line that
+     * makes one Y step, then one that makes one X step, turned 90 degrees
+     * and capped the speed at 1.4 mm/s: finding M12), and a µm is finer
+     * than a step below 1,000 steps/mm. (|256 d_um| <= exact_q8 < 2^31:
+     * |u| <= 2^30, |256 d_um| << 30 < 2^61.) */
     pk_q30_t u[PK_AXES] = { 0 };
-    uint32_t ulen_q8 = steps_q8;
-    for (unsigned i = 0; i < axes; i++) /* |d| <= len: |u| <= 2^30; |d| << 30 < 2^61 */
-        u[i] = pk_ratio_i32(d_q8[i], 30, ulen_q8);
+    const uint32_t ulen_q8 = span_q8;
+    for (unsigned i = 0; i < axes; i++)
+        u[i] = pk_ratio_i32(exact_q8 != 0 ? d_um[i] * 256 : d_q8[i], 30, ulen_q8);
     for (unsigned i = 0; i < axes; i++) {
         int32_t d = d_q8[i];
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
-        uint32_t ad = (uint32_t)(d < 0 ? -d : d);
-        /* The block runs its steps' length in its time, but an axis's steps
-         * fall where its EXACT position crosses each half step (pk_motion.c),
-         * and the exact displacement may be up to a step longer than the
-         * whole steps (or nonzero with none): that axis then crosses faster
-         * than the steps' direction says (finding M6, a 3-step block moving
-         * 3.49 exact steps). Its limits hold for the larger of the two.
-         * (|d_um| < 2^23: 256 |d_um| < 2^31) */
-        const uint32_t ae = (uint32_t)(d_um[i] < 0 ? -d_um[i] : d_um[i]) << 8;
-        if (ae > ad)
-            ad = ae;
+        /* the axis's exact displacement over span_q8 (above) */
+        uint32_t ad = exact_q8 != 0 ? (uint32_t)(d_um[i] < 0 ? -d_um[i] : d_um[i]) << 8
+                                    : (uint32_t)(d < 0 ? -d : d);
         if (ad == 0)
             continue;
         /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
          * (saturated quotients: only their minimum with the caps counts) */
-        /* (over the steps' part of the block: its lead has no step, and
+        /* (over the exact part of the block: its lead has no step, and
          * the steps and their exact crossings all fall after it) */
-        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], steps_q8, ad);
-        uint32_t al = pk_muldiv_u32(p->lim.accel[i], steps_q8, ad);
+        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], span_q8, ad);
+        uint32_t al = pk_muldiv_u32(p->lim.accel[i], span_q8, ad);
         if (vl < v_lim)
             v_lim = vl;
         if (al < acc)

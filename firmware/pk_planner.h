@@ -81,19 +81,22 @@ void pk_planner_break(struct pk_planner *p);
  * Append a straight move to q.
  * @param d_q8     the displacement the steps make, µm Q8 (d_steps[i] * 1000 /
  *                 steps_per_mm[i]; |d_q8[i]| < 2^31, as the steps reproduce
- *                 a displacement within 2 PK_UM_MAX): the geometry is planned in steps, so the
- *                 time given to a block is the time its steps need
- * @param d_steps  displacement in steps (|d_steps[i]| <= PK_PLANNER_MAX_STEPS)
+ *                 a displacement within 2 PK_UM_MAX): only a fallback for a
+ *                 block without an exact displacement
+ * @param d_steps  displacement in steps (|d_steps[i]| <= PK_PLANNER_MAX_STEPS):
+ *                 the events and the direction bits
  * @param d_um     the exact displacement requested, µm (|d_um[i]| < 2^23):
- *                 each axis's rate and acceleration limits hold for the
- *                 larger of it and d_q8[i], since an axis's steps fall where
- *                 its exact position crosses each half step (pk_motion.c),
- *                 and the exact displacement may exceed the whole steps' by
- *                 up to one step (finding M6)
+ *                 the block is timed by its length and its direction, and
+ *                 each axis's rate and acceleration limits hold for it,
+ *                 since an axis's steps fall where its exact position
+ *                 crosses each half step (pk_motion.c): the whole steps
+ *                 only count those crossings, and at a coarse steps/mm they
+ *                 can differ from the exact motion by up to a step per axis
+ *                 either way (findings M6, M12)
  * @param lead_q8  way before the steps, µm Q8 (moves with no whole step since
  *                 the last block, which took no time): the block's length is
- *                 its steps' length plus this, and no event falls in it; the
- *                 axes' limits hold over the steps' length alone
+ *                 the exact length plus this, and no event falls in it; the
+ *                 axes' limits hold over the exact length alone (M11)
  * @param feed     requested speed, µm/min (0 = a rapid: as fast as the axes
  *                 allow, scaled by the rapid override; else the feed override
  *                 applies)

@@ -97,6 +97,7 @@ FINDING_DIRS  := $(patsubst %/,%,$(wildcard tests/fuzz/findings/*/))
 FINDING_TESTS := $(patsubst tests/fuzz/findings/%.c,$(BUILD)/fuzz-strict/%,$(wildcard tests/fuzz/findings/findings_*.c))
 .PHONY: fuzz-findings
 fuzz-findings: $(addprefix $(BUILD)/fuzz-strict/,$(notdir $(FINDING_DIRS))) $(FINDING_TESTS)
+	@[ -n "$(FINDING_DIRS)$(FINDING_TESTS)" ] || echo "no open finding (tests/fuzz/findings/ is empty)"
 	@for d in $(FINDING_DIRS); do t=$$(basename $$d); for f in $$d/*; do \
 	  if $(BUILD)/fuzz-strict/$$t $$f >/dev/null 2>$(BUILD)/fuzz-strict/last.err; then \
 	    echo "FIXED       $$f"; else echo "REPRODUCED  $$f: $$(grep -m1 -E 'invariant broken|runtime error|ERROR: AddressSanitizer' $(BUILD)/fuzz-strict/last.err)"; fi; \

@@ -19,7 +19,16 @@
  * exceeded one step, the first event missed and the block ended a step
  * short. An axis now steps at most once per event by construction (its
  * increment is capped at the period).
+ *
+ * M12 (a feed run 5x slower than commanded): X at 1 step/mm, Y at 137,
+ * tolerance 1 um, feed moves of 4.5 and 9 mm. The steps follow the exact
+ * position, and a piece of the smoothed path could move X most of a
+ * millimetre (inside one X step) while Y made a single 7 um step; the block
+ * was timed by its whole steps' length, so the axes' limits cut its speed by
+ * the ratio of the two. A block's steps' part now runs the larger of the
+ * steps' and the exact displacement's length (pk_planner.c).
  */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "hal_record.h"
@@ -156,6 +165,63 @@ static void test_two_exact_moves_end_exactly_on_the_commanded_step(void)
     TH_EXPECT_EQ(p[1], 0); /* -40 um at 1 step/mm */
 }
 
+/* M12: the settings and moves of the fuzz input (corpus regress-M12-*). The
+ * machine must finish within the time a trapezoid at the commanded feed
+ * over the exact path takes (L/v + v/a), with 25 % for the smoothed path's
+ * extra length and the corners; it took 4.5 times that. */
+static void test_a_coarse_axis_runs_its_exact_motion_at_the_commanded_feed(void)
+{
+    struct pk_motion_cfg c;
+    memset(&c, 0, sizeof c);
+    c.axes = 2;
+    const uint32_t spmm[2] = { 65536u, 8978255u }; /* 1, 136.9973 steps/mm */
+    for (int i = 0; i < 2; i++) {
+        c.steps_per_mm_q16[i] = spmm[i];
+        c.max_rate[i] = 6000000; /* 6000 mm/min */
+        c.accel[i] = 1000000;    /* 1000 mm/s^2 */
+    }
+    c.junction_dev_um = 10;
+    c.step_pulse_ticks = 4;
+    c.dir_setup_ticks = 1;
+    c.pen_down_level = 1;
+    c.smooth.mode = PK_SMOOTH_TOLERANCE;
+    c.smooth.scheme = PK_SCHEME_BSPLINE;
+    c.smooth.degree = 3;
+    c.smooth.tolerance_um = 1;
+    c.smooth.sharp_turn_deg = 180;
+    pk_rec_free(&R);
+    pk_rec_init(&R, TICK_HZ);
+    TH_ASSERT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
+    const uint32_t feed = 3972000u; /* um/min */
+    pk_um_t a[PK_AXES] = { -4520, -40 }, b[PK_AXES] = { -9040, -80 };
+    TH_ASSERT_EQ(pk_machine_move(&M, a, feed, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_move(&M, b, feed, PK_MOVE_FEED), PK_MOTION_OK);
+    TH_ASSERT_EQ(pk_machine_end(&M), PK_MOTION_OK);
+    run_until_idle();
+    TH_EXPECT(pk_machine_state(&M) == PK_STATE_IDLE);
+    /* the time of the last step edge on any axis, from the pins */
+    uint64_t t_end = 0;
+    for (unsigned ax = 0; ax < 2; ax++) {
+        uint64_t *t;
+        int8_t *d;
+        size_t n = pk_mrun_edges(&R, ax, &t, &d);
+        if (n > 0 && t[n - 1] > t_end)
+            t_end = t[n - 1];
+        free(t);
+        free(d);
+    }
+    const double L_mm = 9.04035, v = feed / 60000.0, acc = 1000.0;
+    const double budget_s = L_mm / v + v / acc;
+    const double ran_s = (double)t_end / TICK_HZ;
+    fprintf(stderr, "# M12: last step at %.3f s, budget %.3f s (x%.2f)\n", ran_s, budget_s, ran_s / budget_s);
+    TH_EXPECT(ran_s > 0.5 * budget_s);
+    TH_EXPECT(ran_s <= 1.25 * budget_s);
+    pk_steps_t p[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    TH_EXPECT_EQ(p[0], -9);
+    TH_EXPECT_EQ(p[1], -11);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -164,6 +230,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_dlg_stays_inside_the_soft_limits_when_the_program_starts_with_a_feed_move),
         TH_CASE(test_dlg_stays_inside_the_soft_limits_when_a_run_starts_after_a_reset),
         TH_CASE(test_two_exact_moves_end_exactly_on_the_commanded_step),
+        TH_CASE(test_a_coarse_axis_runs_its_exact_motion_at_the_commanded_feed),
     };
     int f = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);
