@@ -484,7 +484,11 @@ static void step(struct pk_avrchip *c)
     for (unsigned i = 0; i < c->n_fn; i++) {
         struct pk_avrchip_fn *f = &c->fn[i];
         if (f->active) {
-            if (c->n_frames == f->level && sp > f->sp) {
+            /* returned: back at the return address with the stack above
+             * it. SP alone is not enough: a prologue or epilogue writes SPH
+             * and SPL one at a time, and the value between the two writes
+             * can lie above the entry SP (a frame of 256 B or more freed). */
+            if (c->n_frames == f->level && sp > f->sp && avr->pc == f->ret) {
                 uint64_t cyc = (avr->cycle - f->t0) - (c->nest_acc[f->level] - f->isr0);
                 f->active = 0;
                 f->calls++;
@@ -496,6 +500,10 @@ static void step(struct pk_avrchip *c)
             f->active = 1;
             f->level = c->n_frames;
             f->sp = sp;
+            uint32_t ra = 0;             /* pushed high byte last: at SP + 1 */
+            for (unsigned k = 1; k <= avr->address_size; k++)
+                ra = (ra << 8) | avr->data[(uint16_t)(sp + k)];
+            f->ret = 2u * ra;
             f->t0 = avr->cycle;
             f->isr0 = c->nest_acc[f->level];
         }

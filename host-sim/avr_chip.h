@@ -44,7 +44,7 @@
 #include "sim_trace.h"
 
 #define PK_AVRCHIP_MAX_AXES 3
-#define PK_AVRCHIP_MAX_FN 12
+#define PK_AVRCHIP_MAX_FN 24
 #define PK_AVRCHIP_VECTORS 64
 
 /** Input lines of a board, indexed as enum pk_hal_input (hal.h). */
@@ -111,6 +111,7 @@ struct pk_avrchip_fn {
     int active;
     uint8_t level;                    /**< interrupt nesting level it runs at */
     uint16_t sp;                      /**< SP at its first instruction */
+    uint32_t ret;                     /**< byte address it returns to (from the stack) */
     uint64_t t0, isr0;
 };
 

@@ -48,7 +48,9 @@ static const char avrsim_usage[] =
     "  --elf FILE       the image's ELF (symbols): also measure the main-loop functions;\n"
     "                   --profile adds a flat cycle profile of the step interrupt;\n"
     "                   --hist FILE writes its cycles per flash address (`ADDR CYCLES`)\n"
-    "                   (--hist-main FILE: the main loop's cycles instead)\n"
+    "                   (--hist-main FILE: the main loop's cycles instead);\n"
+    "                   --fn NAME also measures the function NAME (or NAME.*: a local\n"
+    "                   of the link-time optimiser) outside interrupts, up to 12 of them\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
     "  --peek N:ADDR:B  report the B-byte little-endian value at ADDR at the end\n"
     "  --input T:NAME=V at T seconds after the program starts, the board's input NAME\n"
@@ -884,6 +886,8 @@ int cmd_avrsim(int argc, char **argv)
     static char watch_name[4][32];
     int watch_addr[4];
     unsigned n_watch = 0;
+    const char *xfn[12];
+    unsigned n_xfn = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -898,6 +902,12 @@ int cmd_avrsim(int argc, char **argv)
             hist_out = v, i++, profile = 1;
         } else if (v != NULL && !strcmp(a, "--hist-main")) {
             hist_out = v, i++, profile = 1, hist_main = 1;
+        } else if (v != NULL && !strcmp(a, "--fn")) {
+            if (n_xfn == 12) {
+                fprintf(stderr, "plotkin avrsim: at most 12 --fn\n");
+                return 2;
+            }
+            xfn[n_xfn++] = v, i++;
         } else if (v != NULL && !strcmp(a, "--board")) {
             board = v, i++;
         } else if (v != NULL && !strcmp(a, "--run")) {
@@ -1040,6 +1050,18 @@ int cmd_avrsim(int argc, char **argv)
             const struct sym *y = sym_find(syms, nsyms, fns[i]);
             if (y != NULL)
                 pk_avrchip_track_fn(&s.chip, fns[i], y->addr);
+        }
+        for (unsigned i = 0; i < n_xfn; i++) {
+            const struct sym *y = sym_find(syms, nsyms, xfn[i]);
+            size_t ln = strlen(xfn[i]);
+            for (size_t k = 0; y == NULL && k < nsyms; k++)
+                if (!strncmp(syms[k].name, xfn[i], ln) && syms[k].name[ln] == '.')
+                    y = &syms[k];
+            if (y == NULL) {
+                fprintf(stderr, "plotkin avrsim: --fn %s: no such function in %s\n", xfn[i], elf);
+                continue;
+            }
+            pk_avrchip_track_fn(&s.chip, xfn[i], y->addr);
         }
         if (profile) {
             s.chip.hist_words = 131072;
