@@ -31,6 +31,10 @@ enum { CYC_NONE = 0, CYC_PROBE = 1, CYC_HOME = 2, CYC_PULL = 3 };
  * (prep_final): on the AVR a refined point costs the decimator ~15,000
  * cycles, and one output point can take 30 of them. */
 #define PULL_BUDGET 4u
+/* Stroke points one poll plans at most: with the chunks of final blocks cut
+ * in between (prep_final), the queue no longer bounds the poll, and the
+ * G-code intake and realtime commands wait for it. */
+#define POLL_POINTS 4u
 
 static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
 {
@@ -781,6 +785,24 @@ static void replan_now(struct pk_machine *m)
     m->plan_fresh = true;
 }
 
+/* Chunks wait and the step path is idle (not started, or the ring ran dry):
+ * start the step timer. */
+static void start_steps(struct pk_machine *m)
+{
+    if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
+        m->sg.restart = true;
+        m->sg.busy = true;
+        uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
+        int r = m->hal->ops->timer_start
+                    ? m->hal->ops->timer_start(m->hal->ctx, pk_machine_timer_cb, m, now + 1u)
+                    : PK_HAL_ENOSYS;
+        if (r != 0) {
+            m->sg.busy = false;
+            m->sg.alarm = PK_ALARM_TIMER;
+        }
+    }
+}
+
 /* Cut chunks from the blocks with a final plan while the ring has room,
  * between the pieces of work of one poll: smoothing and planning a stroke
  * can take longer than the ring lasts on an 8-bit core (tens of ms). When no
@@ -806,16 +828,21 @@ static void prep_final(struct pk_machine *m)
     (void)pk_sg_prep(&m->sg, &m->mq, fin);
     uint32_t popped = count - pk_mq_count(&m->mq);
     m->planner.n_final = (uint8_t)(fin > popped ? fin - popped : 0u);
+    start_steps(m); /* (had the ring run dry, the rest of the poll would keep it stopped) */
 }
 
 /** Pull the open stroke into the motion queue while it has room.
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0) {
+    /* (at most a queue's worth of points a poll, as when nothing was cut in
+     * between: G-code intake and the realtime commands wait for the poll) */
+    while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0
+           && m->poll_points < POLL_POINTS) {
         pk_um_t p[PK_AXES];
         int r = pk_stroke_pull(&m->stroke, p);
         if (r == PK_OK) {
+            m->poll_points++;
             (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
             prep_final(m);
             continue;
@@ -845,8 +872,8 @@ static void take_requests(struct pk_machine *m)
     for (uint32_t it = 0; it < POLL_BUDGET; it++) {
         if (!drain_stroke(m))
             return;
-        if (m->inq_count == 0)
-            return;
+        if (m->inq_count == 0 || m->poll_points >= POLL_POINTS)
+            return; /* (a queue's worth of stroke points: the rest next poll) */
         if (m->line_pending)
             return;
         struct pk_req *r = req_at(m, 0);
@@ -1036,6 +1063,7 @@ void pk_machine_poll(struct pk_machine *m)
     }
     if (m->cycle != CYC_NONE)
         cycle_poll(m);
+    m->poll_points = 0;
     take_requests(m);
     check_idle(m);
     if (!drain_stroke(m))
@@ -1063,18 +1091,7 @@ void pk_machine_poll(struct pk_machine *m)
     (void)pk_sg_prep(&m->sg, &m->mq, allowed);
     uint32_t popped = count - pk_mq_count(&m->mq);
     m->planner.n_final = (uint8_t)(m->planner.n_final > popped ? m->planner.n_final - popped : 0u);
-    if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
-        m->sg.restart = true;
-        m->sg.busy = true;
-        uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
-        int r = m->hal->ops->timer_start
-                    ? m->hal->ops->timer_start(m->hal->ctx, pk_machine_timer_cb, m, now + 1u)
-                    : PK_HAL_ENOSYS;
-        if (r != 0) {
-            m->sg.busy = false;
-            m->sg.alarm = PK_ALARM_TIMER;
-        }
-    }
+    start_steps(m);
 }
 
 uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks)

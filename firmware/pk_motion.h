@@ -244,6 +244,7 @@ struct pk_machine {
                                               program, or the look-ahead waited
                                               lookahead_wait_ms for input) */
     bool was_full;                       /**< the queue was full at the last replan */
+    uint16_t poll_points;                /**< stroke points planned in this poll (MAIN) */
     bool plan_fresh;                     /**< the plan of the blocks it made final still
                                               holds: only blocks were appended since
                                               the last replan (MAIN; prep_final) */
