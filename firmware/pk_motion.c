@@ -835,8 +835,8 @@ static void prep_final(struct pk_machine *m)
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    /* (at most a queue's worth of points a poll, as when nothing was cut in
-     * between: G-code intake and the realtime commands wait for the poll) */
+    /* (at most POLL_POINTS points a poll: the G-code intake and the
+     * realtime commands wait for the poll) */
     while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0
            && m->poll_points < POLL_POINTS) {
         pk_um_t p[PK_AXES];
@@ -873,7 +873,7 @@ static void take_requests(struct pk_machine *m)
         if (!drain_stroke(m))
             return;
         if (m->inq_count == 0 || m->poll_points >= POLL_POINTS)
-            return; /* (a queue's worth of stroke points: the rest next poll) */
+            return; /* (POLL_POINTS stroke points planned: the rest next poll) */
         if (m->line_pending)
             return;
         struct pk_req *r = req_at(m, 0);

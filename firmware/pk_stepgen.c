@@ -549,8 +549,11 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
     struct ev_cursor cur = { sg->ev_next, sg->ev_rem };
     const uint32_t M = b->events, p_first = cur.pos, q_ev = sg->ev_q, r_ev = sg->ev_r;
     uint32_t n = 0;
-    for (uint16_t k; (k = ev_walk(&cur, s1, q_ev, r_ev, M)) != 0u;)
+    uint16_t k;
+    do {
+        k = ev_walk(&cur, s1, q_ev, r_ev, M);
         n += k;
+    } while (k == 0xFFFFu);
     const uint32_t pos = cur.pos, prem = cur.prem;
     /* the last event: one step back from pos (that step carried iff prem <
      * r, since prem < M before it and r < M) */
