@@ -814,8 +814,8 @@ static void start_steps(struct pk_machine *m)
  * of the poll. */
 static void prep_final(struct pk_machine *m)
 {
-    if (m->hold_req || m->cycle_stop || PK_SG_CHUNKS - pk_sg_pending(&m->sg) < 3u)
-        return;
+    if (m->hold_req || m->cycle_stop || m->sg.alarm != 0u || PK_SG_CHUNKS - pk_sg_pending(&m->sg) < 3u)
+        return; /* (an alarm latched by the step path is the end of the poll's business) */
     if (pk_planner_final(&m->planner) == 0u || !m->plan_fresh) {
         if (!m->replan)
             return;
