@@ -33,8 +33,12 @@ enum { CYC_NONE = 0, CYC_PROBE = 1, CYC_HOME = 2, CYC_PULL = 3 };
 #define PULL_BUDGET 4u
 /* Stroke points one poll plans at most: with the chunks of final blocks cut
  * in between (prep_final), the queue no longer bounds the poll, and the
- * G-code intake and realtime commands wait for it. */
-#define POLL_POINTS 4u
+ * G-code intake and realtime commands wait for it. A queue's worth, what a
+ * poll could plan before: fewer (4 was tried) and a main loop polled every
+ * millisecond falls behind a dense stroke where it did not, so that the
+ * starvation rule of pk_machine_poll cuts a block early and the output
+ * depends on the loop's timing (test_motion_steps). */
+#define POLL_POINTS PK_MQ_CAP
 
 static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
 {
@@ -835,8 +839,7 @@ static void prep_final(struct pk_machine *m)
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    /* (at most POLL_POINTS points a poll: the G-code intake and the
-     * realtime commands wait for the poll) */
+    /* (at most POLL_POINTS points a poll) */
     while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0
            && m->poll_points < POLL_POINTS) {
         pk_um_t p[PK_AXES];
