@@ -6,20 +6,69 @@
 
 uint32_t pk_isqrt64(uint64_t x)
 {
-    /* Classic digit-by-digit method: 32 iterations, shifts and compares only. */
-    uint64_t res = 0, bit = (uint64_t)1 << 62;
-    while (bit > x)
-        bit >>= 2;
-    while (bit != 0) {
-        if (x >= res + bit) {
-            x -= res + bit;
-            res = (res >> 1) + bit;
-        } else {
-            res >>= 1;
+    /* Digit by digit, two bits of x per step from the top: after step j (of
+     * 32) root = floor(sqrt(the top 2j bits)) < 2^j and rem = those bits -
+     * root^2 <= 2 root. So up to step 30 (rem * 4 + 3 < 2^32, trial
+     * 4 root + 1 <= 2^31) every step runs in 32 bits, and only the last two
+     * need 64 (none for x < 2^32: there root < 2^(j - 16)). The bits are
+     * taken a byte at a time (8-bit shifts): on an 8-bit core the plain
+     * 64-bit form's shifts, compares and subtractions were long sequences
+     * and libgcc calls (~7,100 cycles a root on the AVR). The result is the
+     * same exact floor. Leading zero bytes leave root and rem at 0: skipped. */
+    const uint32_t hi = (uint32_t)(x >> 32), lo = (uint32_t)x;
+    const uint8_t by[8] = { (uint8_t)(hi >> 24), (uint8_t)(hi >> 16), (uint8_t)(hi >> 8), (uint8_t)hi,
+                            (uint8_t)(lo >> 24), (uint8_t)(lo >> 16), (uint8_t)(lo >> 8), (uint8_t)lo };
+    uint32_t root = 0, rem = 0;
+    unsigned k = 0;
+    while (k < 8u && by[k] == 0u)
+        k++;
+    const unsigned last32 = hi != 0u ? 7u : 8u; /* whole bytes in 32 bits */
+    unsigned pairs = 0;                          /* of by[k] left */
+    uint8_t v = 0;
+    for (;;) {
+        if (pairs == 0u) {
+            if (k == last32)
+                break;
+            v = by[k++];
+            pairs = 4;
         }
-        bit >>= 2;
+        rem = (rem << 2) | (uint32_t)(v >> 6);
+        v = (uint8_t)(v << 2);
+        pairs--;
+        const uint32_t t = (root << 2) | 1u;
+        root <<= 1;
+        if (rem >= t) {
+            rem -= t;
+            root |= 1u;
+        }
     }
-    return (uint32_t)res;
+    if (last32 == 8u)
+        return root;
+    {               /* by[7]: steps 29 and 30 in 32 bits, 31 and 32 in 64 */
+        v = by[7];
+        for (unsigned j = 0; j < 2u; j++) {
+            rem = (rem << 2) | (uint32_t)(v >> 6);
+            v = (uint8_t)(v << 2);
+            const uint32_t t = (root << 2) | 1u;
+            root <<= 1;
+            if (rem >= t) {
+                rem -= t;
+                root |= 1u;
+            }
+        }
+    }
+    uint64_t m = rem;
+    for (unsigned j = 0; j < 2u; j++) {
+        m = (m << 2) | (uint64_t)(v >> 6);
+        v = (uint8_t)(v << 2);
+        const uint64_t t = ((uint64_t)root << 2) | 1u;
+        root <<= 1;
+        if (m >= t) {
+            m -= t;
+            root |= 1u;
+        }
+    }
+    return root;
 }
 
 /* Unit vector along d in Q1.30: scale so that the largest component lies in

@@ -26,6 +26,19 @@ enum { CYC_NONE = 0, CYC_PROBE = 1, CYC_HOME = 2, CYC_PULL = 3 };
 
 /** Work items per poll (bounds the main-loop latency). */
 #define POLL_BUDGET 64u
+/* Refined points one stroke pull may consume without an output point before
+ * it returns, so that the chunks of final blocks are cut in between
+ * (prep_final): on the AVR a refined point costs the decimator ~15,000
+ * cycles, and one output point can take 30 of them. */
+#define PULL_BUDGET 4u
+/* Stroke points one poll plans at most: with the chunks of final blocks cut
+ * in between (prep_final), the queue no longer bounds the poll, and the
+ * G-code intake and realtime commands wait for it. A queue's worth, what a
+ * poll could plan before: fewer (4 was tried) and a main loop polled every
+ * millisecond falls behind a dense stroke where it did not, so that the
+ * starvation rule of pk_machine_poll cuts a block early and the output
+ * depends on the loop's timing (test_motion_steps). */
+#define POLL_POINTS PK_MQ_CAP
 
 static int check_cfg(const struct pk_motion_cfg *c, uint32_t tick_hz)
 {
@@ -98,6 +111,7 @@ static void setup_modules(struct pk_machine *m)
     struct pk_planner_dyn dyn;
     pk_planner_dyn(&lim, &dyn);
     pk_stroke_set_dyn(&m->stroke, &dyn);
+    pk_stroke_set_pull_budget(&m->stroke, PULL_BUDGET);
     m->stroke.observe = m->observe;
     m->stroke.observe_ctx = m->observe_ctx;
     pk_sg_init(&m->sg, m->cfg.axes, hal->tick_hz, cfg->step_pulse_ticks, cfg->dir_setup_ticks);
@@ -511,6 +525,7 @@ int pk_machine_set_override(struct pk_machine *m, uint16_t feed_pct, uint16_t ra
     m->ovr_rapid_pct = rapid_pct;
     pk_planner_set_override(&m->planner, feed_pct, rapid_pct);
     m->replan = true;
+    m->plan_fresh = false; /* the nominal speeds change at the next replan */
     return PK_MOTION_OK;
 }
 
@@ -755,15 +770,81 @@ static bool plan_line(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_um_min_
     return flush_line(m);
 }
 
+/* Recompute the plan (pk_planner_replan: a function of the queue and of where
+ * the step generator is, nothing else). */
+static void replan_now(struct pk_machine *m)
+{
+    pk_v2_q4_t v2;
+    uint32_t rem;
+    pk_sg_plan_state(&m->sg, &m->mq, &v2, &rem);
+    pk_planner_replan(&m->planner, &m->mq, v2, rem, m->flush);
+    m->replan = false;
+    m->plan_fresh = true;
+}
+
+/* Chunks wait and the step path is idle (not started, or the ring ran dry):
+ * start the step timer. */
+static void start_steps(struct pk_machine *m)
+{
+    if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
+        m->sg.restart = true;
+        m->sg.busy = true;
+        uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
+        int r = m->hal->ops->timer_start
+                    ? m->hal->ops->timer_start(m->hal->ctx, pk_machine_timer_cb, m, now + 1u)
+                    : PK_HAL_ENOSYS;
+        if (r != 0) {
+            m->sg.busy = false;
+            m->sg.alarm = PK_ALARM_TIMER;
+        }
+    }
+}
+
+/* Cut chunks from the blocks with a final plan while the ring has room,
+ * between the pieces of work of one poll: smoothing and planning a stroke
+ * can take longer than the ring lasts on an 8-bit core (tens of ms). When no
+ * final block is left, or the plan is stale, it replans first (as the end of
+ * the poll would: the plan is a function of the queue, so the blocks it makes
+ * final, and their chunks, are those a later replan would give; appending
+ * blocks changes no final plan, pk_planner.h). The rules that let more than
+ * the final blocks run (a full queue, a hold, starvation) stay with the end
+ * of the poll. */
+static void prep_final(struct pk_machine *m)
+{
+    if (m->hold_req || m->cycle_stop || m->sg.alarm != 0u || PK_SG_CHUNKS - pk_sg_pending(&m->sg) < 3u)
+        return; /* (an alarm latched by the step path is the end of the poll's business) */
+    if (pk_planner_final(&m->planner) == 0u || !m->plan_fresh) {
+        if (!m->replan)
+            return;
+        replan_now(m);
+    }
+    uint32_t fin = pk_planner_final(&m->planner);
+    if (fin == 0u)
+        return;
+    uint32_t count = pk_mq_count(&m->mq);
+    (void)pk_sg_prep(&m->sg, &m->mq, fin);
+    uint32_t popped = count - pk_mq_count(&m->mq);
+    m->planner.n_final = (uint8_t)(fin > popped ? fin - popped : 0u);
+    start_steps(m); /* (had the ring run dry, the rest of the poll would keep it stopped) */
+}
+
 /** Pull the open stroke into the motion queue while it has room.
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0) {
+    /* (at most POLL_POINTS points a poll) */
+    while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0
+           && m->poll_points < POLL_POINTS) {
         pk_um_t p[PK_AXES];
         int r = pk_stroke_pull(&m->stroke, p);
         if (r == PK_OK) {
+            m->poll_points++;
             (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
+            prep_final(m);
+            continue;
+        }
+        if (r == PK_STROKE_YIELD) {
+            prep_final(m);
             continue;
         }
         if (r < 0) {
@@ -787,8 +868,8 @@ static void take_requests(struct pk_machine *m)
     for (uint32_t it = 0; it < POLL_BUDGET; it++) {
         if (!drain_stroke(m))
             return;
-        if (m->inq_count == 0)
-            return;
+        if (m->inq_count == 0 || m->poll_points >= POLL_POINTS)
+            return; /* (POLL_POINTS stroke points planned: the rest next poll) */
         if (m->line_pending)
             return;
         struct pk_req *r = req_at(m, 0);
@@ -838,6 +919,7 @@ static void take_requests(struct pk_machine *m)
         case PK_REQ_MOVE: /* a rapid (arg 0), or a feed move that changes Z */
             m->req_z_um = r->p[Z_AX];
             (void)plan_line(m, r->p, r->arg, true);
+            prep_final(m);
             break;
         case PK_REQ_PEN:
             (void)pk_planner_add_stop(&m->planner, &m->mq, PK_BLK_PEN, r->kind, 0u, r->arg);
@@ -932,6 +1014,7 @@ static void probe_hold(struct pk_machine *m)
         m->cycle_stop = true;
         pk_sg_set_hold(&m->sg, true);
         m->replan = true;
+        m->plan_fresh = false;
     }
 }
 
@@ -983,6 +1066,7 @@ void pk_machine_poll(struct pk_machine *m)
     }
     if (m->cycle != CYC_NONE)
         cycle_poll(m);
+    m->poll_points = 0;
     take_requests(m);
     check_idle(m);
     if (!drain_stroke(m))
@@ -992,13 +1076,8 @@ void pk_machine_poll(struct pk_machine *m)
         m->was_full = full;
         m->replan = true;
     }
-    if (m->replan) {
-        pk_v2_q4_t v2;
-        uint32_t rem;
-        pk_sg_plan_state(&m->sg, &m->mq, &v2, &rem);
-        pk_planner_replan(&m->planner, &m->mq, v2, rem, m->flush);
-        m->replan = false;
-    }
+    if (m->replan)
+        replan_now(m);
     /* Which blocks may be cut into chunks: those whose plan is final; with a
      * full queue all but the newest (the same blocks whatever the sender's
      * timing, since a full queue holds the next PK_MQ_CAP blocks of the
@@ -1020,18 +1099,7 @@ void pk_machine_poll(struct pk_machine *m)
     (void)pk_sg_prep(&m->sg, &m->mq, allowed);
     uint32_t popped = count - pk_mq_count(&m->mq);
     m->planner.n_final = (uint8_t)(m->planner.n_final > popped ? m->planner.n_final - popped : 0u);
-    if (pk_sg_pending(&m->sg) > 0 && !(m->sg.busy)) {
-        m->sg.restart = true;
-        m->sg.busy = true;
-        uint64_t now = m->hal->ops->clock_ticks(m->hal->ctx);
-        int r = m->hal->ops->timer_start
-                    ? m->hal->ops->timer_start(m->hal->ctx, pk_machine_timer_cb, m, now + 1u)
-                    : PK_HAL_ENOSYS;
-        if (r != 0) {
-            m->sg.busy = false;
-            m->sg.alarm = PK_ALARM_TIMER;
-        }
-    }
+    start_steps(m);
 }
 
 uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks)
@@ -1051,6 +1119,7 @@ void pk_machine_hold(struct pk_machine *m)
     m->hold_req = true;
     pk_sg_set_hold(&m->sg, true);
     m->replan = true;
+    m->plan_fresh = false;
 }
 
 void pk_machine_resume(struct pk_machine *m)
@@ -1060,6 +1129,7 @@ void pk_machine_resume(struct pk_machine *m)
     m->hold_req = false;
     pk_sg_set_hold(&m->sg, m->cycle_stop);   /* a probe's stop goes on */
     m->replan = true;
+    m->plan_fresh = false;
 }
 
 bool pk_machine_reset(struct pk_machine *m)
@@ -1096,6 +1166,7 @@ bool pk_machine_reset(struct pk_machine *m)
     pk_mq_init(&m->mq);
     pk_planner_break(&m->planner);
     m->planner.n_final = 0;
+    m->plan_fresh = false;
     pk_stroke_reset(&m->stroke);
     m->inq_count = 0;
     m->inq_head = 0;

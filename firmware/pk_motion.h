@@ -244,6 +244,10 @@ struct pk_machine {
                                               program, or the look-ahead waited
                                               lookahead_wait_ms for input) */
     bool was_full;                       /**< the queue was full at the last replan */
+    uint16_t poll_points;                /**< stroke points planned in this poll (MAIN) */
+    bool plan_fresh;                     /**< the plan of the blocks it made final still
+                                              holds: only blocks were appended since
+                                              the last replan (MAIN; prep_final) */
     uint64_t wait_since;                 /**< tick since which input is awaited (0: not) */
     pk_stroke_observer observe;          /**< see pk_machine_set_observer */
     void *observe_ctx;

@@ -498,6 +498,35 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
     return true;
 }
 
+/* Step the event positions (pos, with the Bresenham remainder prem < M of
+ * r/M per event) over the events at or before s1, at most 0xFFFF of them;
+ * returns how many. Out of line, with a 16-bit count: its loop keeps its
+ * values in registers (inside seg_events an 8-bit core spilled them to the
+ * stack, ~110 cycles an event; here ~30). */
+struct ev_cursor {
+    uint32_t pos, prem;
+};
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+static uint16_t ev_walk(struct ev_cursor *c, uint32_t s1, uint32_t q, uint32_t r, uint32_t M)
+{
+    uint32_t pos = c->pos, prem = c->prem;
+    uint16_t n = 0;
+    while (pos <= s1 && n != 0xFFFFu) {
+        n++;
+        pos += q;
+        prem += r;
+        if (prem >= M) {
+            prem -= M;
+            pos++;
+        }
+    }
+    c->pos = pos;
+    c->prem = prem;
+    return n;
+}
+
 /* The events of the segment sp, and the state it leaves. Returns false if
  * the ring had no room (the caller checked it). */
 static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, const struct sg_seg *sp)
@@ -519,19 +548,18 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
      * M is at L, and
      * the one after it beyond any s1 <= L, since q >= 1: a step is longer
      * than 1/256 µm) */
-    uint32_t pos = sg->ev_next, prem = sg->ev_rem, n = 0;
-    const uint32_t M = b->events, p_first = pos, q_ev = sg->ev_q, r_ev = sg->ev_r;
-    uint32_t p_last = pos;
-    while (pos <= s1) {
-        p_last = pos;
-        n++;
-        pos += q_ev;
-        prem += r_ev;
-        if (prem >= M) {
-            prem -= M;
-            pos++;
-        }
-    }
+    struct ev_cursor cur = { sg->ev_next, sg->ev_rem };
+    const uint32_t M = b->events, p_first = cur.pos, q_ev = sg->ev_q, r_ev = sg->ev_r;
+    uint32_t n = 0;
+    uint16_t k;
+    do {
+        k = ev_walk(&cur, s1, q_ev, r_ev, M);
+        n += k;
+    } while (k == 0xFFFFu);
+    const uint32_t pos = cur.pos, prem = cur.prem;
+    /* the last event: one step back from pos (that step carried iff prem <
+     * r, since prem < M before it and r < M) */
+    const uint32_t p_last = n > 0u ? pos - q_ev - (prem < r_ev ? 1u : 0u) : p_first;
     const uint32_t e = sg->e + n;
     uint32_t vrep = (v1 + 8u) >> 4;   /* v1 < 2^24 */
     uint64_t carry = sg->carry_q16 + seg_q16;

@@ -162,6 +162,8 @@ static void apply(struct pk_stroke *st, const struct pk_smooth_cfg *s)
 
 void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d) { st->dyn = *d; }
 
+void pk_stroke_set_pull_budget(struct pk_stroke *st, uint8_t n) { st->pull_budget = n; }
+
 void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t axes)
 {
     memset(st, 0, sizeof *st);
@@ -760,6 +762,7 @@ static int feed_kernel(struct pk_stroke *st)
 
 int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
 {
+    unsigned refined = 0;
     for (;;) {
         if (st->emit_n > 0) {
             memcpy(out, st->emit[0], sizeof st->emit[0]);
@@ -781,6 +784,8 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
         int r = pk_refine_pull(&st->k, &o);
         if (r == PK_OK) {
             decimate(st, o.p);
+            if (st->pull_budget != 0u && st->emit_n == 0u && ++refined >= st->pull_budget)
+                return PK_STROKE_YIELD; /* (nothing is lost: the next pull goes on) */
             continue;
         }
         if (r == PK_NEED_INPUT) {

@@ -128,7 +128,13 @@ struct pk_stroke {
                                     its blend (never slower than G61) */
     pk_stroke_observer observe; /**< NULL, or called for every control point */
     void *observe_ctx;
+    uint8_t pull_budget;       /**< refined points one pull may consume before it
+                                    yields (0: no limit; pk_stroke_set_pull_budget) */
 };
+
+/** pk_stroke_pull: the pull budget ran out before a point came out (pull
+ *  again: the stroke resumes where it stopped). Only with a budget set. */
+#define PK_STROKE_YIELD 3
 
 /**
  * Initialise with a smoothing policy (validated by the caller: see
@@ -140,6 +146,13 @@ void pk_stroke_init(struct pk_stroke *st, const struct pk_smooth_cfg *s, uint8_t
  *  blends a corner only where the blend is faster than the kink the exact
  *  path would take there. Zeroed by init (then every corner is blended). */
 void pk_stroke_set_dyn(struct pk_stroke *st, const struct pk_planner_dyn *d);
+
+/** Let one pk_stroke_pull consume at most n refined points of the kernel
+ *  without a point coming out, then return PK_STROKE_YIELD (0: no limit, the
+ *  default), so that a caller with other work due (the chunk preparation of
+ *  an 8-bit board: one point of the path can cost the decimator 30 refined
+ *  points) gets control back. The path is the same either way. */
+void pk_stroke_set_pull_budget(struct pk_stroke *st, uint8_t n);
 
 /** Validate a smoothing policy (and that this build's kernel can run it).
  *  @return 0 if valid, -1 if a value is out of range, -2 if the scheme is
@@ -176,6 +189,8 @@ void pk_stroke_finish(struct pk_stroke *st);
  * @retval PK_OK          *out is the next point
  * @retval PK_NEED_INPUT  add a vertex or finish
  * @retval PK_END         the stroke is complete and closed (no stroke open)
+ * @retval PK_STROKE_YIELD the pull budget ran out (pk_stroke_set_pull_budget):
+ *                        pull again
  * Negative: a kernel error (the stroke is dropped and closed).
  */
 int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES]);

@@ -117,10 +117,23 @@ static void kernel_run(unsigned D, unsigned k, struct poly *out)
  * chord_err: what each move declares it spent (pk_stroke_add). batch: add
  * vertices until the stroke says EBUSY before pulling (a fast sender), else
  * pull after every vertex (a slow one). */
+static uint8_t g_budget;     /* pk_stroke_set_pull_budget for stroke_run_ex */
+static unsigned g_yields;    /* PK_STROKE_YIELD seen */
+
+/* pk_stroke_pull, pulling again while it yields. */
+static int pull(struct pk_stroke *st, pk_um_t o[PK_AXES])
+{
+    int r;
+    while ((r = pk_stroke_pull(st, o)) == PK_STROKE_YIELD)
+        g_yields++;
+    return r;
+}
+
 static void stroke_run_ex(const struct pk_smooth_cfg *s, pk_um_t chord_err, int batch)
 {
     static struct pk_stroke st;
     pk_stroke_init(&st, s, 2);
+    pk_stroke_set_pull_budget(&st, g_budget);
     pk_um_t p[PK_AXES] = { 0 }, o[PK_AXES];
     p[0] = (pk_um_t)IN.p[0][0];
     p[1] = (pk_um_t)IN.p[0][1];
@@ -132,16 +145,16 @@ static void stroke_run_ex(const struct pk_smooth_cfg *s, pk_um_t chord_err, int 
         p[1] = (pk_um_t)IN.p[i][1];
         int r;
         while ((r = pk_stroke_add(&st, p, chord_err)) == PK_EBUSY)
-            while (pk_stroke_pull(&st, o) == PK_OK)
+            while (pull(&st, o) == PK_OK)
                 add(&OUT, o[0], o[1]);
         TH_ASSERT_EQ(r, PK_OK);
         if (!batch)
-            while (pk_stroke_pull(&st, o) == PK_OK)
+            while (pull(&st, o) == PK_OK)
                 add(&OUT, o[0], o[1]);
     }
     pk_stroke_finish(&st);
     int r;
-    while ((r = pk_stroke_pull(&st, o)) == PK_OK)
+    while ((r = pull(&st, o)) == PK_OK)
         add(&OUT, o[0], o[1]);
     TH_EXPECT_EQ(r, PK_END);
     TH_EXPECT(!pk_stroke_is_open(&st));
@@ -481,6 +494,36 @@ static void test_the_smoothed_path_does_not_depend_on_arrival(void)
     }
 }
 
+/* A pull budget only splits the work: the same path, pulled in more calls. */
+static void test_a_pull_budget_changes_nothing_in_the_path(void)
+{
+    static struct poly A;
+    static const uint8_t budgets[] = { 1, 2, 4, 7 };
+    for (int k = 0; k < NSHAPES; k++) {
+        make_shape(k);
+        struct pk_smooth_cfg s;
+        memset(&s, 0, sizeof s);
+        s.mode = PK_SMOOTH_TOLERANCE;
+        s.tolerance_um = 20;
+        s.sharp_turn_deg = 120;
+        g_budget = 0;
+        g_yields = 0;
+        stroke_run_ex(&s, 0, k & 1);
+        TH_EXPECT_EQ(g_yields, 0);
+        A = OUT;
+        for (unsigned b = 0; b < TH_COUNT(budgets); b++) {
+            g_budget = budgets[b];
+            g_yields = 0;
+            stroke_run_ex(&s, 0, k & 1);
+            TH_ASSERT_EQ(A.n, OUT.n);
+            TH_EXPECT(memcmp(A.p, OUT.p, A.n * sizeof A.p[0]) == 0);
+            if (budgets[b] == 1)
+                TH_EXPECT(g_yields > 0);
+        }
+    }
+    g_budget = 0;
+}
+
 /* Chords of a flattened curve declare their error: the path then stays
  * within T of the curve itself, not only of the chords. */
 static void test_chord_vertices_keep_the_path_within_T_of_the_curve(void)
@@ -750,6 +793,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_blends_are_sized_by_the_tolerance_not_by_the_legs),
         TH_CASE(test_a_dense_polyline_is_smoothed_into_its_curve),
         TH_CASE(test_the_smoothed_path_does_not_depend_on_arrival),
+        TH_CASE(test_a_pull_budget_changes_nothing_in_the_path),
         TH_CASE(test_chord_vertices_keep_the_path_within_T_of_the_curve),
         TH_CASE(test_a_looser_tolerance_never_needs_more_segments),
         TH_CASE(test_straight_stretches_collapse_to_few_segments),

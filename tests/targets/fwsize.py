@@ -206,7 +206,7 @@ def measure_stack(plotkin, hexf, board, workload, tmpdir):
     with open(conf, 'w') as f:
         f.write('$100=10\n$101=10\n$102=10\n' + ('$202=2\n' if board.startswith('uno') else ''))
     runs = [[workload, '--at', '0.02:status', '--at', '0.3:status', '--at', '0.6:hold', '--at', '0.7:status',
-             '--at', '0.8:resume'],
+             '--at', '1.5:resume'],
             ['host-sim/examples/flower.gcode', '--config', conf]]
     deepest = 0
     for r in runs:
