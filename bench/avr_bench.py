@@ -124,7 +124,7 @@ def line_profile(elf, histf, syms, fn, steps, top=10):
 def drawing(board, name, prog, conf, tmp, elf, syms):
     app = syms.get('app')
     histf = os.path.join(tmp, 'hist.txt')
-    extra = ['--elf', elf, '--profile', '--hist', histf]
+    extra = ['--elf', elf, '--profile', '--hist', histf, '--poll-status', '5']
     if app is not None:
         base = app[0] & 0xFFFF
         extra += ['--watch', 'chunks:%d' % (base + OFFS['sg_head']),
@@ -169,6 +169,13 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
     row('pk_refine_pull cycles per call / pk_stroke_pull', '%.0f / %.0f' % (pull[1] / max(pull[0], 1),
                                                                           spull[1] / max(spull[0], 1)))
     row('underruns (step-timer restarts beyond the first)', '%d' % (d['timer_starts'] - 1))
+    lat = d.get('status_latency_ms')
+    if lat is None or not d.get('status_polls'):
+        impossible.append('%s, %s: no status latency measured' % (board, name))
+    else:
+        row('longest pk_machine_poll (ms)', '%.1f' % (mp[2] / 16e3))
+        row('"?" at 5 Hz -> whole report: p50 / p99 / max (ms)', '%.1f / %.1f / %.1f' % (
+            lat['p50'], lat['p99'], lat['max']))
     if h is not None:
         row('motion time: chip / plotkin sim (s)', '%.2f / %.2f' % (d['motion_s'], h['sim_time_s']))
         row('  ratio', '%.2f' % (d['motion_s'] / h['sim_time_s']))

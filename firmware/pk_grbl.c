@@ -140,7 +140,14 @@ int pk_grbl_rt_filter(void *vg, uint8_t b)
         return b >= 0x80 ? 1 : 0;
     }
     g->rt[f] = 1;
+    g->rt_any = 1;
     return 1;
+}
+
+bool pk_grbl_wants_cpu(void *vg)
+{
+    const struct pk_grbl *g = vg;
+    return g->rt_any != 0u || g->out_len > 0u || g->status_due || g->greet_due || g->msg_due;
 }
 
 /* Take a flag: the ISR may set it again right after; it is then acted on at
@@ -231,6 +238,7 @@ static int door_ajar(struct pk_grbl *g)
 
 static void realtime(struct pk_grbl *g)
 {
+    g->rt_any = 0; /* (before the flags are taken: one set after this is seen next time) */
     input_events(g);
     if (take(g, PK_GRBL_RT_RESET)) {
         if (PK_GRBL_INPUTS && g->mode == MODE_HOMING) { /* Grbl: ALARM:6, $H answered, reset */

@@ -62,6 +62,7 @@
 #ifndef PLOTKIN_PK_GRBL_H
 #define PLOTKIN_PK_GRBL_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include "pk_fixed.h"
@@ -440,6 +441,7 @@ struct pk_grbl {
 #endif
     /* realtime flags: one byte each, the ISR writes 1, MAIN writes 0 */
     volatile uint8_t rt[PK_GRBL_RT_COUNT];
+    volatile uint8_t rt_any; /* a flag was set since the engine last took them */
     /* line assembly */
     uint8_t line[PK_GRBL_LINE_MAX];
     uint8_t len;
@@ -506,6 +508,17 @@ void pk_grbl_set_observer(struct pk_grbl *g, pk_grbl_observer_fn fn, void *ctx);
  * @return 1 if the byte was claimed (do not buffer it), else 0
  */
 int pk_grbl_rt_filter(void *g, uint8_t byte);
+
+/**
+ * [MAIN] The engine has work that should not wait for a long machine poll:
+ * a realtime command since it last took them (the filter sets a byte after
+ * the command's flag; the engine clears it before it takes the flags, so
+ * none is missed), or output not yet handed to the stream (a status
+ * report, answers). For pk_machine_set_yield (ctx = the engine): a feed
+ * hold, a status report or a reset then waits for one piece of the
+ * machine's work, not for a whole poll.
+ */
+bool pk_grbl_wants_cpu(void *g);
 
 /**
  * [MAIN] Do the protocol's work: act on realtime flags, hand the pending

@@ -184,6 +184,8 @@ static int op_configure(void *ctx, const struct pk_grbl_settings *s)
     int rc = gm->ready ? pk_machine_configure(gm->m, &cfg) : pk_machine_init(gm->m, &cfg, gm->hal);
     if (rc != PK_MOTION_OK)
         return -1;
+    if (!gm->ready)
+        pk_machine_set_yield(gm->m, gm->yield, gm->yield_ctx);
     gm->set = *s;
     gm->ready = 1;
     return 0;

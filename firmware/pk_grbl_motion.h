@@ -36,6 +36,8 @@
 struct pk_grbl_motion {
     struct pk_machine *m;        /**< storage for the machine (initialised by configure) */
     const struct pk_hal *hal;    /**< its HAL; must outlive the machine */
+    pk_machine_yield_fn yield;   /**< set before the engine's init: given to the machine */
+    void *yield_ctx;             /**< (pk_machine_set_yield), e.g. pk_grbl_wants_cpu */
     struct pk_grbl_settings set; /**< last settings applied (private) */
     int ready;                   /**< the machine has been initialised (private) */
 #if PK_GRBL_INPUTS

@@ -828,11 +828,30 @@ static void prep_final(struct pk_machine *m)
     start_steps(m); /* (had the ring run dry, the rest of the poll would keep it stopped) */
 }
 
+/* The caller has urgent work (pk_machine_set_yield): end this poll's
+ * stroke work (as if POLL_POINTS had been planned). */
+static bool yield_now(struct pk_machine *m)
+{
+    if (m->yield != NULL && m->yield(m->yield_ctx)) {
+        m->poll_points = POLL_POINTS;
+        return true;
+    }
+    return false;
+}
+
+void pk_machine_set_yield(struct pk_machine *m, pk_machine_yield_fn fn, void *ctx)
+{
+    m->yield = fn;
+    m->yield_ctx = ctx;
+}
+
 /** Pull the open stroke into the motion queue while it has room.
  *  Returns false on a kernel error (alarm latched). */
 static bool drain_stroke(struct pk_machine *m)
 {
-    /* (at most POLL_POINTS points a poll) */
+    /* (at most POLL_POINTS points a poll, fewer when the caller has urgent
+     * work: pk_machine_set_yield; at least one piece of work, so that a
+     * caller whose flag stays set still sees the machine go on) */
     while (flush_line(m) && pk_stroke_is_open(&m->stroke) && pk_mq_room(&m->mq) > 0
            && m->poll_points < POLL_POINTS) {
         pk_um_t p[PK_AXES];
@@ -841,10 +860,14 @@ static bool drain_stroke(struct pk_machine *m)
             m->poll_points++;
             (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
             prep_final(m);
+            if (yield_now(m))
+                break;
             continue;
         }
         if (r == PK_STROKE_YIELD) {
             prep_final(m);
+            if (yield_now(m))
+                break;
             continue;
         }
         if (r < 0) {

@@ -207,6 +207,10 @@ struct pk_req {
     };
 };
 
+/** The caller has urgent work (pk_machine_set_yield); MAIN, cheap, no call
+ *  back into the machine. */
+typedef bool (*pk_machine_yield_fn)(void *ctx);
+
 /**
  * One machine. Caller-owned; all members are private (use the functions).
  * Lifetime: valid from pk_machine_init until the caller frees the storage;
@@ -245,6 +249,8 @@ struct pk_machine {
                                               lookahead_wait_ms for input) */
     bool was_full;                       /**< the queue was full at the last replan */
     uint16_t poll_points;                /**< stroke points planned in this poll (MAIN) */
+    pk_machine_yield_fn yield;           /**< true: return from the poll early (pk_machine_set_yield) */
+    void *yield_ctx;
     bool plan_fresh;                     /**< the plan of the blocks it made final still
                                               holds: only blocks were appended since
                                               the last replan (MAIN; prep_final) */
@@ -460,6 +466,24 @@ bool pk_machine_reset(struct pk_machine *m);
  * into the machine; NULL turns it off. Takes effect for the next stroke.
  */
 void pk_machine_set_observer(struct pk_machine *m, pk_stroke_observer fn, void *ctx);
+
+/**
+ * Give the CPU back early when the caller has urgent work. One poll may
+ * smooth and plan up to a queue's worth of stroke points, and on an 8-bit
+ * core that can take hundreds of milliseconds (a refined point costs the
+ * decimator ~15,000 cycles, an output point up to 30 of them), while a
+ * realtime command ('!', '?', Ctrl-X) is acted on, and its answer written,
+ * only between polls. While fn(ctx) is true, pk_machine_poll returns after
+ * the piece of work it is on (one stroke point, or the few refined points of
+ * a pull budget), with the chunks of final blocks cut as usual, and the next
+ * poll goes on from there; a poll always does at least one piece, so a
+ * caller that always says true still sees the machine go on. The steps do
+ * not depend on where a poll returns (the plan is a function of the queue);
+ * their times can shift by the polls the machine waits for work, as they do
+ * with the main loop's timing. E.g. pk_grbl_wants_cpu.
+ * @param fn  NULL (the default) never yields early
+ */
+void pk_machine_set_yield(struct pk_machine *m, pk_machine_yield_fn fn, void *ctx);
 
 /**
  * Hard limits (Grbl $21). On: a limit input that becomes active, moving or

@@ -17,6 +17,8 @@ int pk_app_init_settings(struct pk_app *app, const struct pk_hal *hal,
     memset(app, 0, sizeof *app);
     app->gm.m = &app->m;
     app->gm.hal = hal;
+    app->gm.yield = pk_grbl_wants_cpu; /* realtime commands and output end a long poll */
+    app->gm.yield_ctx = &app->g;
     pk_uart_init(&app->uart, pk_grbl_rt_filter, &app->g);
     struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb,
                                  &app->uart };

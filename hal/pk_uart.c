@@ -14,8 +14,16 @@
 #define RX_MASK ((uint8_t)(PK_UART_RX_SIZE - 1))
 #define TX_MASK ((uint8_t)(PK_UART_TX_SIZE - 1))
 
+void pk_uart_set_tx_kick(struct pk_uart *u, void (*fn)(void *ctx), void *ctx)
+{
+    u->tx_kick = fn;
+    u->tx_kick_ctx = ctx;
+}
+
 void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx)
 {
+    u->tx_kick = NULL;
+    u->tx_kick_ctx = NULL;
     memset(u->rx, 0, sizeof u->rx);
     memset(u->tx, 0, sizeof u->tx);
     atomic_init(&u->rx_head, 0);
@@ -124,6 +132,8 @@ int pk_uart_write(struct pk_uart *u, const uint8_t *buf, size_t len)
         h++;
     }
     atomic_store_explicit(&u->tx_head, h, memory_order_release);
+    if (n > 0 && u->tx_kick != NULL)
+        u->tx_kick(u->tx_kick_ctx);
     return (int)n;
 }
 

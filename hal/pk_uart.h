@@ -87,6 +87,8 @@ struct pk_uart {
                                        (written by the main loop only) */
     pk_uart_rt_filter filter;
     void *filter_ctx;
+    void (*tx_kick)(void *ctx);   /**< pk_uart_set_tx_kick */
+    void *tx_kick_ctx;
 };
 
 /** Result of pk_uart_rx_push. */
@@ -103,6 +105,18 @@ enum pk_uart_rx_result {
  * Calling context: MAIN, before the receive side is enabled.
  */
 void pk_uart_init(struct pk_uart *u, pk_uart_rt_filter filter, void *ctx);
+
+/**
+ * Start the transmit side as soon as bytes are written: pk_uart_write calls
+ * fn(ctx) after it has added any (in the writer's context), e.g. to enable
+ * the transmit interrupt. Without it the board starts the transmitter once
+ * per main loop run, and an answer written early in a long run (a status
+ * report the machine's poll then holds up for hundreds of milliseconds on
+ * an 8-bit core) waits for the end of it.
+ * @param fn  NULL: none (the default)
+ * Calling context: MAIN.
+ */
+void pk_uart_set_tx_kick(struct pk_uart *u, void (*fn)(void *ctx), void *ctx);
 
 /** [ISR / receive side] Offer one received byte. See enum pk_uart_rx_result. */
 int pk_uart_rx_push(struct pk_uart *u, uint8_t byte);

@@ -493,8 +493,10 @@ static void step(struct pk_avrchip *c)
                 f->active = 0;
                 f->calls++;
                 f->cycles += cyc;
-                if (cyc > f->max)
+                if (cyc > f->max) {
                     f->max = cyc;
+                    f->max_t0 = f->t0;
+                }
             }
         } else if (avr->pc == f->addr) {
             f->active = 1;

@@ -107,6 +107,7 @@ struct pk_avrchip_fn {
     const char *name;
     uint32_t addr;                    /**< byte address of its first instruction */
     uint64_t calls, cycles, max;
+    uint64_t max_t0;                  /**< the cycle the longest call began at */
     /* private: the call in progress */
     int active;
     uint8_t level;                    /**< interrupt nesting level it runs at */

@@ -28,7 +28,7 @@ static const char avrsim_usage[] =
     "                      [--trace OUT.csv] [--at SECONDS:EVENT]... [--timeout SECONDS]\n"
     "                      [--driver NAME] [--elf FILE [--profile]] [--watch N:ADDR]...\n"
     "                      [--peek N:ADDR:BYTES]... [--input T:NAME=V]... [--switch NAME:AXIS:MM[:-]]...\n"
-    "                      [--eeprom FILE]\n"
+    "                      [--eeprom FILE] [--poll-status HZ]\n"
     "       plotkin avrsim FIRMWARE.hex [--board NAME] --link PATH [--speed X]\n"
     "\n"
     "Runs the Intel HEX image of a board (what `make firmware` writes, what would be\n"
@@ -58,6 +58,8 @@ static const char avrsim_usage[] =
     "  --switch NAME:AXIS:MM[:-]  input NAME is active while the decoded AXIS is at MM\n"
     "                   or beyond (:- below), as `plotkin sim --switch`; mm with the\n"
     "                   steps/mm of --config ($100-$102, default 80)\n"
+    "  --poll-status HZ send '?' at HZ as a sender polls (the next once the last report\n"
+    "                   is in) and report the time from each '?' to its whole report\n"
     "  --eeprom FILE    the chip's EEPROM (settings, offsets, startup lines) is read from\n"
     "                   FILE before the chip starts (if it exists) and written back at the\n"
     "                   end, as the EEPROM of a board survives a power cycle\n"
@@ -101,6 +103,12 @@ struct avrsim {
     char status[256];          /* last status report */
     unsigned statuses;
     uint64_t status_seq;
+    /* --poll-status: '?' at a sender's rate, the time to each whole report */
+    uint64_t poll_cycles;      /* period, cycles (0: off) */
+    uint64_t poll_next, poll_sent;
+    int poll_waiting;
+    double *lat_ms;            /* latencies (malloc'd) */
+    size_t n_lat, cap_lat;
     /* sender */
     unsigned answered;         /* ok/error lines since the stream started */
     double spmm[3];
@@ -166,6 +174,20 @@ static void handle_line(struct avrsim *s, const char *l)
         s->alarms++;
         s->alarm_code = (unsigned)atoi(l + 6);
     } else if (l[0] == '<') {
+        if (s->poll_waiting) {
+            s->poll_waiting = 0;
+            if (s->n_lat == s->cap_lat) {
+                size_t c = s->cap_lat ? 2 * s->cap_lat : 256;
+                double *p = realloc(s->lat_ms, c * sizeof *p);
+                if (p != NULL) {
+                    s->lat_ms = p;
+                    s->cap_lat = c;
+                }
+            }
+            if (s->n_lat < s->cap_lat)
+                s->lat_ms[s->n_lat++] =
+                    (double)(pk_avrchip_cycles(&s->chip) - s->poll_sent) * 1000.0 / (double)s->b->f_cpu;
+        }
         snprintf(s->status, sizeof s->status, "%s", l);
         s->statuses++;
         s->status_seq++;
@@ -493,6 +515,15 @@ static void run_program(struct avrsim *s, struct prog_line *ln, size_t n, struct
                 break;
             pk_avrchip_input_set(&s->chip, e->input, e->active);
         }
+        /* a sender's status polling (--poll-status): the next '?' once the
+         * last one is answered (cncjs and UGS wait for the report too) */
+        if (s->poll_cycles && !s->poll_waiting && now >= s->poll_next) {
+            if (send_bytes(s, "?", 1) != 0)
+                goto stopped;
+            s->poll_sent = now;
+            s->poll_waiting = 1;
+            s->poll_next = now + s->poll_cycles;
+        }
         /* realtime events */
         while (next_at < n_at && now >= t0 + (uint64_t)(at[next_at].t_s * (double)f)) {
             uint8_t b = at[next_at].byte;
@@ -645,6 +676,23 @@ struct peek_req {
 static struct peek_req peek[4];
 static unsigned n_peek;
 
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : (x > y ? 1 : 0);
+}
+
+/* p50 / p99 / max of the status latencies (nearest rank). */
+static void lat_stats(struct avrsim *s, double *p50, double *p99, double *mx)
+{
+    if (s->n_lat == 0)
+        return;
+    qsort(s->lat_ms, s->n_lat, sizeof *s->lat_ms, cmp_double);
+    *p50 = s->lat_ms[(s->n_lat - 1) / 2];
+    *p99 = s->lat_ms[(size_t)((double)(s->n_lat - 1) * 0.99)];
+    *mx = s->lat_ms[s->n_lat - 1];
+}
+
 static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct run_report *r,
                        const struct sym *syms, size_t nsyms, int profile)
 {
@@ -670,6 +718,12 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
     fprintf(o, "  \"hold_checks\": %u,\n  \"hold_exact\": %u,\n  \"hold_still\": %u,\n", r->hold_checks,
             r->hold_exact, r->hold_still);
     fprintf(o, "  \"greetings\": %u,\n", s->greetings);
+    if (s->poll_cycles) {
+        double p50 = 0, p99 = 0, mx = 0;
+        lat_stats(s, &p50, &p99, &mx);
+        fprintf(o, "  \"status_polls\": %zu,\n  \"status_latency_ms\": { \"p50\": %.3f, \"p99\": %.3f, \"max\": %.3f },\n",
+                s->n_lat, p50, p99, mx);
+    }
     fprintf(o, "  \"messages\": [");
     for (unsigned i = 0; i < s->msgs && i < 8; i++) {
         fputs(i ? ", \"" : "\"", o);
@@ -722,8 +776,10 @@ static void print_json(FILE *o, struct avrsim *s, const char *hex, const struct 
     }
     fprintf(o, "},\n  \"functions\": {");
     for (unsigned i = 0; i < c->n_fn; i++)
-        fprintf(o, "%s\"%s\": {\"calls\": %" PRIu64 ", \"cycles\": %" PRIu64 ", \"max\": %" PRIu64 "}",
-                i ? ", " : "", c->fn[i].name, c->fn[i].calls, c->fn[i].cycles, c->fn[i].max);
+        fprintf(o, "%s\"%s\": {\"calls\": %" PRIu64 ", \"cycles\": %" PRIu64 ", \"max\": %" PRIu64
+                   ", \"max_at_s\": %.6f}",
+                i ? ", " : "", c->fn[i].name, c->fn[i].calls, c->fn[i].cycles, c->fn[i].max,
+                secs(s, c->fn[i].max_t0));
     fprintf(o, "},\n  \"watches\": {");
     for (unsigned i = 0; i < c->n_watch; i++)
         fprintf(o, "%s\"%s\": %" PRIu64, i ? ", " : "", c->watch[i].name, c->watch[i].changes);
@@ -781,6 +837,12 @@ static void print_text(FILE *o, struct avrsim *s, const struct run_report *r)
     fprintf(o, "  timing violations %zu; pen changes %u; motion %.3f s; stack %u B; timer starts %" PRIu64 "\n",
             d->n_viol, s->pen_changes, s->steps_total ? secs(s, s->last_step - s->first_step) : 0.0,
             pk_avrchip_stack_bytes(&s->chip), s->chip.timer_starts);
+    if (s->poll_cycles) {
+        double p50 = 0, p99 = 0, mx = 0;
+        lat_stats(s, &p50, &p99, &mx);
+        fprintf(o, "  status polled at %.0f Hz: %zu reports, latency ('?' sent to the report's end) p50 %.2f ms, p99 %.2f ms, max %.2f ms\n",
+                (double)s->b->f_cpu / (double)s->poll_cycles, s->n_lat, p50, p99, mx);
+    }
 }
 
 /* ---- --link: a pseudo-terminal ------------------------------------------------- */
@@ -877,7 +939,7 @@ int cmd_avrsim(int argc, char **argv)
     const char *link = NULL, *driver = "drv8825", *elf = NULL, *hist_out = NULL;
     int hist_main = 0;
     int json = 0, profile = 0;
-    double timeout = 600.0, speed = 1.0;
+    double timeout = 600.0, speed = 1.0, poll_hz = 0.0;
     struct at_event at[AT_MAX];
     unsigned n_at = 0;
     static struct pk_sim_inputs inputs;
@@ -924,6 +986,13 @@ int cmd_avrsim(int argc, char **argv)
             elf = v, i++;
         } else if (v != NULL && !strcmp(a, "--timeout")) {
             timeout = atof(v), i++;
+        } else if (v != NULL && !strcmp(a, "--poll-status")) {
+            char *end;
+            poll_hz = strtod(v, &end), i++;
+            if (*end != '\0' || !(poll_hz > 0.0 && poll_hz <= 1000.0)) {
+                fprintf(stderr, "plotkin avrsim: --poll-status wants a rate in Hz (0 < HZ <= 1000)\n");
+                return 2;
+            }
         } else if (v != NULL && !strcmp(a, "--speed")) {
             speed = atof(v), i++;
         } else if (v != NULL && !strcmp(a, "--watch")) {
@@ -1013,6 +1082,8 @@ int cmd_avrsim(int argc, char **argv)
         return 1;
     }
     s.in = inputs;
+    if (poll_hz > 0.0)
+        s.poll_cycles = (uint64_t)((double)b->f_cpu / poll_hz);
     long ee_size = pk_avrchip_eeprom(&s.chip, NULL, 0, 0);
     if (eeprom != NULL) {
         FILE *ef = fopen(eeprom, "rb");

@@ -18,6 +18,15 @@ static int offer(struct pk_machine *m, const struct pk_mrun_op *op)
     }
 }
 
+struct yflag {
+    bool on;
+};
+
+static bool yflag_get(void *ctx)
+{
+    return ((const struct yflag *)ctx)->on;
+}
+
 struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
                               const struct pk_mrun_op *ops, size_t n,
                               const struct pk_mrun_opts *o)
@@ -32,6 +41,10 @@ struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
     uint64_t hold_at = o ? o->hold_at : 0, resume_at = o ? o->resume_at : 0;
     if (poll == 0)
         poll = 1;
+    uint32_t yield_every = o ? o->yield_every : 0;
+    struct yflag yf = { 0 };
+    if (yield_every)
+        pk_machine_set_yield(m, yflag_get, &yf);
     size_t i = 0;
     for (uint64_t k = 0;; k++) {
         if (hold_at && rec->now >= hold_at) {
@@ -52,7 +65,14 @@ struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
                 i++;
             }
         }
+        if (yield_every)
+            yf.on = k % yield_every == 0;
+        uint32_t lp = pk_machine_lines_planned(m);
         pk_machine_poll(m);
+        res.polls++;
+        lp = pk_machine_lines_planned(m) - lp;
+        if (lp > res.most_planned)
+            res.most_planned = lp;
         enum pk_machine_state st = pk_machine_state(m);
         if (i >= limit && st == PK_STATE_IDLE && !pk_rec_armed(rec) && !resume_at)
             break;
@@ -64,6 +84,8 @@ struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
         }
         pk_rec_advance(rec, rec->now + poll);
     }
+    if (yield_every)
+        pk_machine_set_yield(m, NULL, NULL); /* (yf goes out of scope) */
     res.end_tick = rec->now;
     res.sent = i;
     return res;

@@ -32,12 +32,16 @@ struct pk_mrun_opts {
     uint64_t max_ticks;      /* give up after (default 600 s) */
     uint64_t hold_at;        /* if non-zero: feed hold at this tick ... */
     uint64_t resume_at;      /* ... and resume at this tick */
+    uint32_t yield_every;    /* if non-zero: the machine's yield flag (pk_machine_set_yield)
+                                is set on every n-th poll, as a realtime byte would */
 };
 
 struct pk_mrun_result {
     uint64_t end_tick;       /* tick when the machine became idle with all ops sent */
     size_t sent;             /* ops accepted */
     uint64_t efull;          /* EFULL answers the producer saw */
+    uint64_t polls;          /* pk_machine_poll calls */
+    uint32_t most_planned;   /* most line blocks one poll planned (pk_machine_lines_planned) */
     int timed_out;
 };
 

@@ -129,6 +129,52 @@ static void test_unknown_bytes_over_0x7f_are_dropped_and_the_line_runs(void)
     TH_EXPECT(strstr(OUT, "error") == NULL);
 }
 
+/* pk_grbl_wants_cpu (what ends a long machine poll, pk_machine_set_yield):
+ * true from the moment a realtime byte is claimed in the receive path until
+ * the engine has taken it and its answer has left the staging buffer, false
+ * while the engine has nothing to do. */
+static void test_the_engine_wants_the_cpu_while_a_realtime_command_or_its_answer_waits(void)
+{
+    rig_running();
+    poll_n(3);
+    TH_EXPECT(!pk_grbl_wants_cpu(&G));
+    rx("?", 1);
+    TH_EXPECT(pk_grbl_wants_cpu(&G));      /* claimed, not yet taken */
+    pk_grbl_poll(&G);                      /* taken; the report is handed to the ring */
+    TH_EXPECT(!pk_grbl_wants_cpu(&G));
+    poll_n(1);
+    TH_EXPECT(strstr(OUT, "<Run|") != NULL);
+    /* output that does not fit the ring stays staged: wanted until it left */
+    F.q = 0; /* the fake machine is idle: $$ is answered */
+    poll_n(2);
+    outn = 0;
+    rx("$$\n", 3);
+    bool wanted = false;
+    for (int i = 0; i < 200; i++) {
+        pk_grbl_poll(&G);
+        wanted |= pk_grbl_wants_cpu(&G);
+        uint8_t b[8]; /* a slow reader: 8 bytes a main loop run */
+        size_t k = pk_uart_tx_pop(&U, b, sizeof b);
+        if (outn + k < sizeof OUT) {
+            memcpy(OUT + outn, b, k);
+            outn += k;
+            OUT[outn] = 0;
+        }
+    }
+    TH_EXPECT(wanted);
+    TH_EXPECT(strstr(OUT, "$0=") != NULL);
+    rig_running();
+    poll_n(3);
+    /* a line is not urgent, a hold is */
+    rx("G1X2F600\n", 9);
+    TH_EXPECT(!pk_grbl_wants_cpu(&G));
+    rx("!", 1);
+    TH_EXPECT(pk_grbl_wants_cpu(&G));
+    poll_n(2);
+    TH_EXPECT_EQ(F.holds, 1);
+    TH_EXPECT(!pk_grbl_wants_cpu(&G));
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -136,6 +182,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_a_feed_hold_behind_sixteen_status_queries_is_not_lost),
         TH_CASE(test_unknown_bytes_over_0x7f_are_dropped_and_the_line_runs),
+        TH_CASE(test_the_engine_wants_the_cpu_while_a_realtime_command_or_its_answer_waits),
     };
     return th_run(cases, TH_COUNT(cases));
 }

@@ -447,6 +447,56 @@ static void test_a_long_full_queue_changes_nothing_in_the_output(void)
     TH_EXPECT_EQ(diff, 0);
 }
 
+/* A caller with a realtime command pending (pk_machine_set_yield) gets the
+ * CPU back after one piece of the poll's work; the machine goes on at the
+ * next poll. A smoothed arc, main loop every 10 µs: the flag set at every
+ * poll (each poll then plans at most one stroke point) and at every third
+ * one, against no flag. The same pin events in the same order; their times
+ * shift by the polls the machine waits for work (it starts some polls
+ * later), so the run's length is compared, within 0.5 %. */
+static void test_a_poll_that_yields_to_realtime_work_changes_nothing_in_the_path(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    c.smooth.mode = PK_SMOOTH_TOLERANCE;
+    c.smooth.tolerance_um = 20;
+    c.smooth.sharp_turn_deg = 120;
+    static struct pk_mrun_op ops[400];
+    size_t n = arc_ops(ops, 300, 15000.0, 1.0, 2400000);
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_opts plain = { .poll_ticks = 10 };
+    struct pk_mrun_result ra = pk_mrun(&M, &R, ops, n, &plain);
+    TH_ASSERT(!ra.timed_out);
+    TH_EXPECT(ra.most_planned >= 4u); /* (what a poll plans without the flag) */
+    const uint32_t every[] = { 1, 3 };
+    for (unsigned e = 0; e < TH_COUNT(every); e++) {
+        setup(&M2, &R2, &c, TICK_HZ);
+        struct pk_mrun_opts yo = { .poll_ticks = 10, .yield_every = every[e] };
+        struct pk_mrun_result rb = pk_mrun(&M2, &R2, ops, n, &yo);
+        TH_ASSERT(!rb.timed_out);
+        TH_EXPECT_EQ(rb.sent, n);
+        TH_EXPECT(rb.polls > ra.polls / 2u);
+        if (every[e] == 1) /* (a stroke point is one block here: no piece splits) */
+            TH_EXPECT(rb.most_planned <= 1u);
+        TH_ASSERT_EQ(R.n, R2.n);
+        TH_ASSERT(R.n > 1000u);
+        size_t diff = 0;
+        for (size_t k = 0; k < R.n; k++) {
+            const struct pk_rec_event *a = &R.ev[k], *b = &R2.ev[k];
+            if (a->kind != b->kind || a->mask != b->mask || a->levels != b->levels)
+                diff++;
+        }
+        TH_EXPECT_EQ(diff, 0);
+        const double la = (double)(R.ev[R.n - 1].tick - R.ev[0].tick);
+        const double lb = (double)(R2.ev[R.n - 1].tick - R2.ev[0].tick);
+        TH_EXPECT(lb >= la && lb <= la * 1.005);
+        TH_EXPECT(M2.yield == NULL && M2.yield_ctx == NULL);
+        pk_steps_t pa[PK_AXES], pb[PK_AXES];
+        pk_machine_position_steps(&M, pa);
+        pk_machine_position_steps(&M2, pb);
+        TH_EXPECT(memcmp(pa, pb, sizeof pa) == 0);
+    }
+}
+
 static void test_a_late_main_loop_delays_steps_but_loses_none(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -699,6 +749,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_failing_step_write_stops_with_an_alarm_and_the_position_counts_real_pulses),
         TH_CASE(test_a_failing_direction_write_stops_before_any_step_in_the_wrong_direction),
         TH_CASE(test_a_long_full_queue_changes_nothing_in_the_output),
+        TH_CASE(test_a_poll_that_yields_to_realtime_work_changes_nothing_in_the_path),
         TH_CASE(test_a_late_main_loop_delays_steps_but_loses_none),
         TH_CASE(test_two_machines_side_by_side_do_not_share_state),
         TH_CASE(test_feed_hold_decelerates_within_the_limit_and_resume_finishes_exactly),

@@ -176,6 +176,42 @@ static int wait_readable(int fd, int ms)
     return poll(&p, 1, ms) == 1;
 }
 
+static unsigned kicks;
+static size_t kicked_with; /* bytes in the ring when the kick came */
+static struct pk_uart KU;
+static void count_kick(void *ctx)
+{
+    TH_EXPECT(ctx == &KU);
+    kicks++;
+    kicked_with = PK_UART_TX_SIZE - pk_uart_tx_space(&KU);
+}
+
+/* The transmitter is started by the write itself, after the bytes are in
+ * the ring (a board's main loop would otherwise start it only at the end
+ * of its run: a status report held up by a long machine poll), and only
+ * when bytes were added. */
+static void test_a_write_starts_the_transmitter_once_its_bytes_are_in(void)
+{
+    pk_uart_init(&KU, NULL, NULL);
+    const uint8_t msg[3] = { 'o', 'k', '\n' };
+    TH_EXPECT_EQ(pk_uart_write(&KU, msg, 3), 3); /* no kick set: nothing called */
+    TH_EXPECT_EQ(kicks, 0);
+    pk_uart_set_tx_kick(&KU, count_kick, &KU);
+    TH_EXPECT_EQ(pk_uart_write(&KU, msg, 3), 3);
+    TH_EXPECT_EQ(kicks, 1);
+    TH_EXPECT_EQ(kicked_with, 6);
+    uint8_t fill[PK_UART_TX_SIZE];
+    memset(fill, 'x', sizeof fill);
+    int n = pk_uart_write(&KU, fill, sizeof fill);
+    TH_EXPECT_EQ(n, PK_UART_TX_SIZE - 6);
+    TH_EXPECT_EQ(kicks, 2);
+    TH_EXPECT_EQ(pk_uart_write(&KU, msg, 1), 0); /* full: nothing added, no kick */
+    TH_EXPECT_EQ(kicks, 2);
+    pk_uart_init(&KU, NULL, NULL); /* init forgets it */
+    TH_EXPECT_EQ(pk_uart_write(&KU, msg, 1), 1);
+    TH_EXPECT_EQ(kicks, 2);
+}
+
 static void test_a_pty_client_and_the_shim_exchange_bytes_both_ways(void)
 {
     static struct pk_uart u;
@@ -257,6 +293,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_byte_lost_by_the_hardware_is_reported_where_it_went_missing),
         TH_CASE(test_realtime_bytes_are_claimed_and_never_stored_even_when_full),
         TH_CASE(test_tx_accepts_only_what_fits_and_pops_in_order),
+        TH_CASE(test_a_write_starts_the_transmitter_once_its_bytes_are_in),
         TH_CASE(test_a_pty_client_and_the_shim_exchange_bytes_both_ways),
         TH_CASE(test_opening_a_missing_device_or_bad_baud_fails_cleanly),
     };

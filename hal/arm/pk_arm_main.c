@@ -13,11 +13,18 @@ static struct pk_app app;
 static const char init_failed[] =
     "[MSG:plotkin: the machine refused its default settings or the HAL]\n";
 
+static void tx_kick(void *ctx)
+{
+    (void)ctx;
+    pk_board_uart_kick();
+}
+
 int main(void)
 {
     const struct pk_hal *hal = pk_board_init();
     int rc = pk_app_init(&app, hal);
     pk_board_uart_start(&app.uart);
+    pk_uart_set_tx_kick(&app.uart, tx_kick, NULL); /* answers leave at once */
     pk_arm_irq_enable();
     if (rc != 0) {
         (void)pk_hal_enable_write(hal, 0xFFu, 0u);

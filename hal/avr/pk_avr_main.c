@@ -30,12 +30,18 @@ static void halt_with_message(const char *msg_P)
         pk_avr_uart_kick(&pk_avr_board);
 }
 
+static void tx_kick(void *ctx)
+{
+    pk_avr_uart_kick(ctx);
+}
+
 int main(void)
 {
     cli();
     pk_avr_init(&pk_avr_board);
     int rc = pk_app_init(&app, &pk_avr_board.hal);
     pk_avr_uart_start(&pk_avr_board, &app.uart);
+    pk_uart_set_tx_kick(&app.uart, tx_kick, &pk_avr_board); /* answers leave at once */
     sei();
     if (rc != 0)
         halt_with_message(init_failed);
