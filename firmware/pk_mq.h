@@ -51,7 +51,7 @@ struct pk_block {
                                     steps when its accumulator reaches 0, then drops
                                     by the period, 256 M */
     uint32_t len_q8;           /**< LINE: path length, µm Q8 (< 2^31): the lead, then
-                                    the steps' length */
+                                    the exact displacement's length (pk_planner.h) */
     uint32_t lead_q8;          /**< LINE: the way before the first event, µm Q8 (moves
                                     without a whole step since the block before:
                                     pk_planner.h) */
