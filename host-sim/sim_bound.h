@@ -60,6 +60,8 @@ struct pk_bound_vtx {
     double f2;               /* speed cap of the segment ending here, (mm/s)^2 */
     double acc;              /* tangential limit of that segment, mm/s^2 */
     double len;              /* its length, mm */
+    double s;                /* arc position in the piece, mm */
+    double tol;              /* tolerance of that segment, mm */
 };
 
 struct pk_bound {
@@ -67,6 +69,7 @@ struct pk_bound {
     struct pk_bound_vtx *v;  /* the piece being collected */
     size_t n, cap;
     double tol_mm;           /* tolerance of the vertex being added */
+    double acc_norm;         /* the largest acceleration in any direction, |(A_x, A_y, A_z)|, mm/s^2 */
     double time_s;           /**< bound for what was flushed so far, s */
     uint64_t vertices;       /**< vertices seen */
     int tool;                /* tool state of the last primitive (-1: none yet) */
