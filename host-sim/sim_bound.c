@@ -12,11 +12,18 @@
 #define CHORD_UM 0.5  /* flattening of arcs and curves for the bound */
 #define EPS_MM 1e-9   /* shorter segments are merged into the next */
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 void pk_bound_init(struct pk_bound *b, const struct pk_bound_cfg *cfg)
 {
     memset(b, 0, sizeof *b);
     b->cfg = *cfg;
     b->tool = -1;
+    for (unsigned a = 0; a < cfg->axes && a < 3u; a++)
+        b->acc_norm += cfg->acc_mm_s2[a] * cfg->acc_mm_s2[a];
+    b->acc_norm = sqrt(b->acc_norm);
 }
 
 void pk_bound_free(struct pk_bound *b)
@@ -46,8 +53,10 @@ double pk_bound_corner_radius_mm(double phi, double tol_mm, double l1, double l2
     if (c >= 1.0)
         return INFINITY;
     double r = 2.0 * tol_mm / (1.0 - c);
-    double leg = (l1 < l2 ? l1 : l2) / (2.0 * tan(h));
-    return r < leg ? r : leg;
+    /* the circle reaches its tangent points r tan(phi/2) along each leg; a
+     * shorter leg does not hold the path to its direction there */
+    double reach = r * tan(h);
+    return l1 >= reach && l2 >= reach ? r : INFINITY;
 }
 
 /* The limit along unit direction d of per-axis limits lim[]: min lim_a/|d_a|. */
@@ -62,6 +71,119 @@ static double dir_limit(const struct pk_bound_cfg *c, const double d[3], const d
     return best;
 }
 
+/* The cap of the vertex between the segment of direction t1 (unit), length
+ * l1, speed cap f1 and the next one (t2, l2, f2): the tube circle, or Grbl's
+ * junction rule when tol is 0. */
+static double corner_cap2(const struct pk_bound *b, double tol, const double t1[3], double l1, double f1,
+                          const double t2[3], double l2, double f2)
+{
+    double dot = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2];
+    double cap = f1 < f2 ? f1 * f1 : f2 * f2; /* (mm/s)^2 */
+    if (dot > 1.0 - 1e-15)
+        return cap;
+    double phi = acos(dot < -1.0 ? -1.0 : dot);
+    double dv[3] = { t2[0] - t1[0], t2[1] - t1[1], t2[2] - t1[2] };
+    double m = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
+    for (int k = 0; k < 3; k++)
+        dv[k] /= m;
+    double ac = dir_limit(&b->cfg, dv, b->cfg.acc_mm_s2);
+    double r;
+    if (tol > 0.0) {
+        r = pk_bound_corner_radius_mm(phi, tol, l1, l2);
+    } else {
+        double c = cos(phi / 2.0);
+        r = c <= 0.0 ? 0.0 : b->cfg.junction_mm * c / (1.0 - c);
+    }
+    double v2 = ac * r;
+    return v2 < cap ? v2 : cap;
+}
+
+/* The point at arc position s of the collected piece (clamped to it). */
+static void point_at(const struct pk_bound_vtx *v, size_t n, double s, double q[3])
+{
+    size_t lo = 1, hi = n - 1; /* the first vertex j >= 1 with v[j].s >= s */
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (v[mid].s < s)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    const struct pk_bound_vtx *e = &v[lo], *a = &v[lo - 1];
+    double u = e->len > 0.0 ? (s - a->s) / e->len : 0.0;
+    u = u < 0.0 ? 0.0 : u > 1.0 ? 1.0 : u;
+    for (int k = 0; k < 3; k++)
+        q[k] = a->p[k] + u * (e->p[k] - a->p[k]);
+}
+
+/*
+ * The window rule (sim_bound.h) at vertex i with the points a and c at arc
+ * distances h1 before and h2 after it: the cap of v_i^2 it implies, INFINITY
+ * if none. P: the largest tolerance of the piece.
+ */
+static double window_cap2(const struct pk_bound *b, size_t i, double h1, double h2, double P)
+{
+    const struct pk_bound_vtx *v = b->v;
+    double pa[3], pc[3], c1 = 0.0, c2 = 0.0, dot = 0.0;
+    point_at(v, b->n, v[i].s - h1, pa);
+    point_at(v, b->n, v[i].s + h2, pc);
+    for (int k = 0; k < 3; k++) {
+        double u1 = v[i].p[k] - pa[k], u2 = pc[k] - v[i].p[k];
+        c1 += u1 * u1;
+        c2 += u2 * u2;
+        dot += u1 * u2;
+    }
+    c1 = sqrt(c1);
+    c2 = sqrt(c2);
+    if (c1 <= 2.0 * P || c2 <= 2.0 * P)
+        return INFINITY;
+    double cs = dot / (c1 * c2);
+    double theta = acos(cs > 1.0 ? 1.0 : cs < -1.0 ? -1.0 : cs);
+    /* the chords of the path: each end moved by up to P */
+    theta -= asin(2.0 * P / c1) + asin(2.0 * P / c2);
+    if (theta <= 0.0)
+        return INFINITY;
+    double l1 = h1 + 2.0 * P, l2 = h2 + 2.0 * P, lmax = l1 > l2 ? l1 : l2;
+    double k1 = 2.0 * theta / (l1 + l2), k2 = M_PI / (2.0 * lmax);
+    double kappa = k1 < k2 ? k1 : k2;
+    return b->acc_norm / kappa + 2.0 * b->acc_norm * lmax;
+}
+
+/* The window rule over half-widths 4P, 8P, 16P, ... at vertex i, below cap2. */
+static double windows_cap2(const struct pk_bound *b, size_t i, double P, double cap2)
+{
+    const struct pk_bound_vtx *v = b->v;
+    double before = v[i].s, after = v[b->n - 1].s - v[i].s;
+    for (double h = 4.0 * P;; h *= 2.0) {
+        /* a window caps no lower than 2 A h: wider ones cannot help */
+        if (2.0 * b->acc_norm * h >= cap2)
+            break;
+        double h1 = h < before ? h : before, h2 = h < after ? h : after;
+        double w = window_cap2(b, i, h1, h2, P);
+        if (w < cap2)
+            cap2 = w;
+        if (h >= before && h >= after)
+            break;
+    }
+    return cap2;
+}
+
+/* The cap of the inner vertex i of the collected piece. */
+static double vertex_cap2(const struct pk_bound *b, size_t i, double piece_tol)
+{
+    const struct pk_bound_vtx *v = b->v;
+    double t1[3] = { 0, 0, 0 }, t2[3] = { 0, 0, 0 };
+    for (unsigned a = 0; a < b->cfg.axes && a < 3u; a++) {
+        t1[a] = (v[i].p[a] - v[i - 1].p[a]) / v[i].len;
+        t2[a] = (v[i + 1].p[a] - v[i].p[a]) / v[i + 1].len;
+    }
+    double tol = v[i + 1].tol; /* in force for the move that turns */
+    double cap2 = corner_cap2(b, tol, t1, v[i].len, sqrt(v[i].f2), t2, v[i + 1].len, sqrt(v[i + 1].f2));
+    if (tol > 0.0)
+        cap2 = windows_cap2(b, i, piece_tol, cap2);
+    return cap2;
+}
+
 /* Bound of the collected piece, from rest to rest; the piece is then empty
  * except for its last vertex (the start of the next one). */
 static void flush(struct pk_bound *b)
@@ -69,8 +191,14 @@ static void flush(struct pk_bound *b)
     struct pk_bound_vtx *v = b->v;
     size_t n = b->n;
     if (n >= 2) {
+        double piece_tol = 0.0;
+        for (size_t i = 1; i < n; i++)
+            if (v[i].tol > piece_tol)
+                piece_tol = v[i].tol;
         v[0].cap2 = 0.0;
         v[n - 1].cap2 = 0.0;
+        for (size_t i = 1; i + 1 < n; i++)
+            v[i].cap2 = vertex_cap2(b, i, piece_tol);
         /* forward, then backward: v^2 changes by at most 2 A L per segment */
         for (size_t i = 1; i < n; i++) {
             double w = v[i - 1].cap2 + 2.0 * v[i].acc * v[i].len;
@@ -88,34 +216,9 @@ static void flush(struct pk_bound *b)
     }
     if (n > 0) {
         v[0] = v[n - 1];
+        v[0].s = 0.0;
         b->n = 1;
     }
-}
-
-/* The cap of the vertex between the segments ending at v[n-2] -> v[n-1]
- * and the new one of direction t2 (unit), length l2, speed cap f2. */
-static double corner_cap2(const struct pk_bound *b, const double t1[3], double l1, double f1,
-                          const double t2[3], double l2, double f2)
-{
-    double dot = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2];
-    double cap = f1 < f2 ? f1 * f1 : f2 * f2; /* (mm/s)^2 */
-    if (dot > 1.0 - 1e-15)
-        return cap;
-    double phi = acos(dot < -1.0 ? -1.0 : dot);
-    double dv[3] = { t2[0] - t1[0], t2[1] - t1[1], t2[2] - t1[2] };
-    double m = sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
-    for (int k = 0; k < 3; k++)
-        dv[k] /= m;
-    double ac = dir_limit(&b->cfg, dv, b->cfg.acc_mm_s2);
-    double r;
-    if (b->tol_mm > 0.0) {
-        r = pk_bound_corner_radius_mm(phi, b->tol_mm, l1, l2);
-    } else {
-        double c = cos(phi / 2.0);
-        r = c <= 0.0 ? 0.0 : b->cfg.junction_mm * c / (1.0 - c);
-    }
-    double v2 = ac * r;
-    return v2 < cap ? v2 : cap;
 }
 
 static int push(struct pk_bound *b, const double p_mm[3], double feed_mm_s)
@@ -134,7 +237,7 @@ static int push(struct pk_bound *b, const double p_mm[3], double feed_mm_s)
         b->n = 1;
         return 0;
     }
-    struct pk_bound_vtx *last = &b->v[b->n - 1];
+    const struct pk_bound_vtx *last = &b->v[b->n - 1];
     double d[3] = { 0, 0, 0 }, len = 0.0;
     for (unsigned a = 0; a < b->cfg.axes && a < 3u; a++) {
         d[a] = p_mm[a] - last->p[a];
@@ -158,19 +261,12 @@ static int push(struct pk_bound *b, const double p_mm[3], double feed_mm_s)
         b->cap *= 2;
         last = &b->v[b->n - 1];
     }
-    if (b->n >= 2) {
-        const struct pk_bound_vtx *prev = &b->v[b->n - 2];
-        double t1[3] = { 0, 0, 0 };
-        for (unsigned a = 0; a < b->cfg.axes && a < 3u; a++)
-            t1[a] = (last->p[a] - prev->p[a]) / last->len;
-        last->cap2 = corner_cap2(b, t1, last->len, sqrt(last->f2), d, len, f);
-    } else {
-        last->cap2 = 0.0;
-    }
     struct pk_bound_vtx *nv = &b->v[b->n++];
     memcpy(nv->p, p_mm, sizeof nv->p);
-    nv->cap2 = f * f; /* until the next segment says otherwise; the last is a stop */
+    nv->cap2 = f * f; /* the corner caps come at the flush */
     nv->f2 = f * f;
+    nv->s = last->s + len;
+    nv->tol = b->tol_mm;
     nv->acc = dir_limit(&b->cfg, d, b->cfg.acc_mm_s2);
     nv->len = len;
     b->vertices++;

@@ -128,15 +128,23 @@ static void test_the_corner_circle_is_the_widest_inside_the_tube(void)
         TH_EXPECT(circle_excess(phi, P, r, 1e9) <= P * (1 + 1e-6));
         TH_EXPECT(circle_excess(phi, P, r * 1.01, 1e9) > P);
     }
-    /* short legs: the turn takes at most half of the shorter one */
-    double r = pk_bound_corner_radius_mm(M_PI / 2, 1.0, 2.0, 3.0);
-    TH_EXPECT(fabs(r - 1.0) < 1e-12); /* 2 / (2 tan 45) */
+    /* the circle touches the outer edges r tan(phi/2) along each leg: a
+     * shorter leg does not hold the path, the rule then says nothing (the
+     * window rule of sim_bound.h takes over) */
+    double r = 2.0 / (1 - cos(M_PI / 4));
+    TH_EXPECT(fabs(pk_bound_corner_radius_mm(M_PI / 2, 1.0, r, r) - r) < 1e-12);
+    TH_EXPECT(isinf(pk_bound_corner_radius_mm(M_PI / 2, 1.0, 2.0, 3.0)));
+    TH_EXPECT(isinf(pk_bound_corner_radius_mm(M_PI / 2, 1.0, 1e9, 0.99 * r)));
 }
 
 static void test_a_dense_circle_runs_at_its_curvature_speed(void)
 {
-    /* R = 20 mm in 0.1 mm chords at a feed no axis limits: v = sqrt(A_c R),
-     * A_c between A (on an axis) and sqrt(2) A (diagonal) */
+    /* R = 20 mm in 0.1 mm chords at a feed no axis limits: a path within
+     * 0.01 mm runs at most about sqrt(A_c R), A_c between A (on an axis) and
+     * sqrt(2) A (diagonal); the 0.1 mm legs are too short for the tube
+     * circle, the window rule holds the bound to about 1.2 x sqrt(sqrt(2) A R)
+     * (best window h = 2.56 mm), which with the start and the stop stays in
+     * the band below */
     struct pk_bound_cfg c = cfg_xy(1000, 1000);
     struct pk_bound b;
     pk_bound_init(&b, &c);
@@ -150,6 +158,74 @@ static void test_a_dense_circle_runs_at_its_curvature_speed(void)
     TH_EXPECT(t > L / sqrt(1000 * sqrt(2.0) * R));
     TH_EXPECT(t < L / sqrt(1000 * R) + 2 * sqrt(1000 * R) / 1000); /* + start and stop */
     pk_bound_free(&b);
+}
+
+/* The bound of a piece that no corner slows: a trapezoid over the programmed
+ * length at the feed F with the axes' acceleration A (each segment's own limit
+ * is at least A). Computed here by hand: F/A + L/F when the ramps fit. */
+static double feed_trapezoid(double L, double F, double A)
+{
+    return L >= F * F / A ? L / F + F / A : 2 * sqrt(L / A);
+}
+
+/* A straight line of 20 mm drawn as a zigzag 6 um high in 50 um steps
+ * (points of a traced bitmap, noise of a CAM tool): the straight line is
+ * within 3 um of it, inside any tolerance of 10 um, so the zigzag's turns
+ * (0.24 rad each) must not slow the bound — they did when each turn was
+ * confined to half of its 50 um legs. */
+static double zigzag_bound(double tol)
+{
+    struct pk_bound_cfg c = cfg_xy(100, 1000);
+    struct pk_bound b;
+    pk_bound_init(&b, &c);
+    for (int i = 0; i < 400; i++)
+        add_line(&b, 0.05 * i, (i & 1) ? 0.006 : 0, 0.05 * (i + 1), (i & 1) ? 0 : 0.006, 50, tol);
+    double t = pk_bound_finish(&b);
+    pk_bound_free(&b);
+    return t;
+}
+
+static void test_a_zigzag_inside_the_tube_runs_at_its_feed(void)
+{
+    double L = 400 * hypot(0.05, 0.006);
+    double want = feed_trapezoid(L, 50, 1000), t = zigzag_bound(0.01), exact = zigzag_bound(0);
+    TH_EXPECT(t <= want + 1e-9);
+    TH_EXPECT(t >= L / 50); /* never faster than the feed */
+    TH_EXPECT(t <= exact + 1e-9);
+}
+
+/* A circle of radius 5 mm in chords alternating 8 um and 1 um (the pattern
+ * of pcb2gcode's isolation paths): at F = 50 mm/s the circle itself needs
+ * F^2 / R = 500 mm/s^2 < A, so nothing but the feed limits it. Confining each
+ * turn to half of its shorter leg read the 1 um chords as a 1.1 mm radius. */
+static double uneven_circle_bound(double tol, double *len)
+{
+    struct pk_bound_cfg c = cfg_xy(100, 1000);
+    struct pk_bound b;
+    pk_bound_init(&b, &c);
+    const double R = 5, step[2] = { 0.008, 0.001 };
+    double a = 0, L = 0;
+    for (int i = 0; a < 2 * M_PI; i++) {
+        double a1 = a + step[i & 1] / R;
+        if (a1 > 2 * M_PI)
+            a1 = 2 * M_PI;
+        add_line(&b, R * cos(a), R * sin(a), R * cos(a1), R * sin(a1), 50, tol);
+        L += 2 * R * sin((a1 - a) / 2);
+        a = a1;
+    }
+    double t = pk_bound_finish(&b);
+    pk_bound_free(&b);
+    *len = L;
+    return t;
+}
+
+static void test_an_unevenly_sampled_circle_runs_at_its_feed(void)
+{
+    double L, t = uneven_circle_bound(0.01, &L), exact = uneven_circle_bound(0, &L);
+    double want = feed_trapezoid(L, 50, 1000);
+    TH_EXPECT(t <= want + 1e-9);
+    TH_EXPECT(t >= L / 50);
+    TH_EXPECT(t <= exact + 1e-9);
 }
 
 /* The firmware never beats the bound: plotkin sim, tolerance and exact. */
@@ -197,11 +273,27 @@ static void test_the_firmware_never_beats_the_bound(void)
         k += (size_t)snprintf(circle + k, sizeof circle - k, "G1 X%.4f Y%.4f F12000\n",
                               40 + 20 * cos(2 * M_PI * i / 400), 40 + 20 * sin(2 * M_PI * i / 400));
     snprintf(circle + k, sizeof circle - k, "M5\nM2\n");
+    /* the two shapes above that a half-leg corner rule overestimated */
+    static char zigzag[64 * 1024];
+    k = (size_t)snprintf(zigzag, sizeof zigzag, "G21 G90\nG0 X10 Y10\nM3\nG1 F3000\n");
+    for (int i = 1; i <= 400; i++)
+        k += (size_t)snprintf(zigzag + k, sizeof zigzag - k, "X%.3f Y%.3f\n", 10 + 0.05 * i, (i & 1) ? 10.006 : 10);
+    snprintf(zigzag + k, sizeof zigzag - k, "M5\nM2\n");
+    static char uneven[256 * 1024];
+    k = (size_t)snprintf(uneven, sizeof uneven, "G21 G90\nG0 X45 Y40\nM3\nG1 F3000\n");
+    double a = 0;
+    for (int i = 0; a < 2 * M_PI && k < sizeof uneven - 64; i++) {
+        a += ((i & 1) ? 0.001 : 0.008) / 5;
+        k += (size_t)snprintf(uneven + k, sizeof uneven - k, "X%.5f Y%.5f\n", 40 + 5 * cos(a), 40 + 5 * sin(a));
+    }
+    snprintf(uneven + k, sizeof uneven - k, "M5\nM2\n");
     check_firmware_not_faster("bound-corner-tol", corner, 0, 0.02);
     check_firmware_not_faster("bound-corner-exact", corner, 1, 0);
     check_firmware_not_faster("bound-chamfer-tol", chamfer, 0, 0.02);
     check_firmware_not_faster("bound-circle-tol", circle, 0, 0.02);
     check_firmware_not_faster("bound-circle-exact", circle, 1, 0);
+    check_firmware_not_faster("bound-zigzag-tol", zigzag, 0, 0.01);
+    check_firmware_not_faster("bound-uneven-circle-tol", uneven, 0, 0.01);
 }
 
 int th_main(int argc, char **argv)
@@ -213,6 +305,8 @@ int th_main(int argc, char **argv)
         TH_CASE(test_a_square_slows_to_the_tube_circle_at_each_corner),
         TH_CASE(test_the_corner_circle_is_the_widest_inside_the_tube),
         TH_CASE(test_a_dense_circle_runs_at_its_curvature_speed),
+        TH_CASE(test_a_zigzag_inside_the_tube_runs_at_its_feed),
+        TH_CASE(test_an_unevenly_sampled_circle_runs_at_its_feed),
         TH_CASE(test_the_firmware_never_beats_the_bound),
     };
     return th_run(cases, TH_COUNT(cases));
