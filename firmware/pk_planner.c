@@ -238,28 +238,34 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         return 0;
     if (pk_mq_room(q) == 0)
         return -1;
-    uint32_t steps_q8 = pk_isqrt64(ss);
-    if (steps_q8 == 0)
-        steps_q8 = 1;
-    /* The block is timed by its EXACT displacement, not its whole steps: an
-     * axis steps where its exact position crosses a half step (pk_motion.c),
-     * so its steps' times are those of the exact motion, and a block's whole
-     * steps only count the crossings inside it. At a coarse steps/mm the two
-     * differ by up to a step per axis: X at 1 step/mm moving 282 µm in a
-     * piece that makes one whole X step (1 mm), or one Y step of 7 µm while
-     * X moves most of a millimetre. Timed and limited by the steps, such
-     * blocks ran a straight line 6 times slower than its feed (finding M12);
-     * limited by the steps over a length that was not the exact one, an
-     * axis ran over its rate (M6, M11). (|d_um| < 2^23: each square < 2^62,
-     * the sum of three < 2^64. A block with a step has an exact
-     * displacement: the steps' length is only a fallback.) */
+    /* The block is planned on its EXACT displacement, not its whole steps:
+     * an axis steps where its exact position crosses a half step
+     * (pk_motion.c), so its steps' times are those of the exact motion, and
+     * a block's whole steps only count the crossings inside it. At a coarse
+     * steps/mm the two differ by up to a step per axis: X at 1 step/mm
+     * moving 282 µm in a piece that makes one whole X step (1 mm), or one Y
+     * step of 7 µm while X moves most of a millimetre. Timed and limited by
+     * the steps, such blocks ran a straight line 6 times slower than its
+     * feed (finding M12); limited by the steps over a length that was not
+     * the exact one, an axis ran over its rate (M6, M11). e is the
+     * displacement planned, µm Q8: its length is the block's (before the
+     * lead), its direction the junction's, each axis's part the one its
+     * limits hold for. (|d_um| < 2^23: |e| < 2^31, each square < 2^62, the
+     * sum of three < 2^64. A block with a step has an exact displacement:
+     * the steps' is only a fallback.) */
+    int32_t e[PK_AXES] = { 0 };
     uint64_t se = 0;
     for (unsigned i = 0; i < axes; i++) {
-        const uint64_t e = (uint64_t)(d_um[i] < 0 ? -(int64_t)d_um[i] : d_um[i]) << 8;
-        se += e * e;
+        e[i] = d_um[i] * 256;
+        se += (uint64_t)((int64_t)e[i] * e[i]);
     }
-    const uint32_t exact_q8 = pk_isqrt64(se);
-    uint32_t span_q8 = exact_q8 != 0 ? exact_q8 : steps_q8;
+    if (se == 0) {
+        memcpy(e, d_q8, sizeof e);
+        se = ss;
+    }
+    uint32_t span_q8 = pk_isqrt64(se);
+    if (span_q8 == 0)
+        span_q8 = 1;
     if (span_q8 > 0x7FFFFFFFu)
         span_q8 = 0x7FFFFFFFu;
     /* the block's length: the exact part and the lead before it (< 2^31) */
@@ -273,25 +279,21 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->lead_q8 = lead_q8;
     uint32_t v_lim = PK_UM_MIN_MAX;
     uint32_t acc = PK_UM_S2_MAX;
-    /* The direction and length of the exact displacement, for the junction
-     * and curvature: the steps follow the exact position, so the axes'
+    /* The direction of the exact displacement, for the junction and
+     * curvature: the steps follow the exact position, so the axes'
      * velocities turn as it does. The whole steps' direction is that
      * quantised to a step (at 1 step/mm a piece of a straight line that
      * makes one Y step, then one that makes one X step, turned 90 degrees
      * and capped the speed at 1.4 mm/s: finding M12), and a µm is finer
-     * than a step below 1,000 steps/mm. (|256 d_um| <= exact_q8 < 2^31:
-     * |u| <= 2^30, |256 d_um| << 30 < 2^61.) */
+     * than a step below 1,000 steps/mm. (|e| <= span_q8 < 2^31: |u| <=
+     * 2^30, |e| << 30 < 2^61.) */
     pk_q30_t u[PK_AXES] = { 0 };
-    const uint32_t ulen_q8 = span_q8;
     for (unsigned i = 0; i < axes; i++)
-        u[i] = pk_ratio_i32(exact_q8 != 0 ? d_um[i] * 256 : d_q8[i], 30, ulen_q8);
+        u[i] = pk_ratio_i32(e[i], 30, span_q8);
     for (unsigned i = 0; i < axes; i++) {
-        int32_t d = d_q8[i];
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
-        /* the axis's exact displacement over span_q8 (above) */
-        uint32_t ad = exact_q8 != 0 ? (uint32_t)(d_um[i] < 0 ? -d_um[i] : d_um[i]) << 8
-                                    : (uint32_t)(d < 0 ? -d : d);
+        const uint32_t ad = (uint32_t)(e[i] < 0 ? -e[i] : e[i]);
         if (ad == 0)
             continue;
         /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
@@ -321,7 +323,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         dyn_of(a_turn, p->lim.junction_dev_um, &dyn);
         const pk_um_s2_t side = dyn.a_side;
         const pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)a_turn * PK_PLANNER_ALONG_Q15) >> 15);
-        pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, ulen_q8, side);
+        pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, span_q8, side);
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {
             pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
@@ -373,7 +375,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->v2_exit = 0;
     p->have_prev = true;
     memcpy(p->prev_u, u, sizeof p->prev_u);
-    p->prev_len_q8 = ulen_q8;
+    p->prev_len_q8 = span_q8;
     p->prev_accel = b->accel;
     return 1;
 }
