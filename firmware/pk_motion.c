@@ -859,22 +859,17 @@ static bool drain_stroke(struct pk_machine *m)
         if (r == PK_OK) {
             m->poll_points++;
             (void)plan_line(m, p, m->stroke_feed, m->stroke.out_sharp);
-            prep_final(m);
-            if (yield_now(m))
-                break;
-            continue;
+        } else if (r != PK_STROKE_YIELD) {
+            if (r < 0) {
+                m->sg.alarm = PK_ALARM_INTERNAL;
+                return false;
+            }
+            break;
         }
-        if (r == PK_STROKE_YIELD) {
-            prep_final(m);
-            if (yield_now(m))
-                break;
-            continue;
-        }
-        if (r < 0) {
-            m->sg.alarm = PK_ALARM_INTERNAL;
-            return false;
-        }
-        break;
+        /* (a point planned, or a pull budget spent without one) */
+        prep_final(m);
+        if (yield_now(m))
+            break;
     }
     return true;
 }
