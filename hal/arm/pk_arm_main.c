@@ -37,8 +37,6 @@ int main(void)
         for (;;)
             pk_board_uart_kick();
     }
-    for (;;) {
+    for (;;) /* (each write starts the transmitter: pk_uart_set_tx_kick) */
         pk_app_poll(&app);
-        pk_board_uart_kick();
-    }
 }

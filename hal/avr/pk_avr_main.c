@@ -45,8 +45,6 @@ int main(void)
     sei();
     if (rc != 0)
         halt_with_message(init_failed);
-    for (;;) {
+    for (;;) /* (each write starts the transmitter: pk_uart_set_tx_kick) */
         pk_app_poll(&app);
-        pk_avr_uart_kick(&pk_avr_board);
-    }
 }
