@@ -896,6 +896,19 @@ static inline SG_INLINE uint8_t pulse_state(const struct pk_stepgen *sg, uint32_
 #define PK_SG_HW_PULSE 0
 #endif
 
+/* Write the spindle value v (a board without one: fine); 1 with *ret set if
+ * the write failed (alarm latched), else 0. */
+static SG_COLD int isr_spindle(struct pk_stepgen *sg, const struct pk_hal *hal, uint16_t v, uint32_t *ret)
+{
+    int r = pk_hal_spindle_write(hal, v);
+    if (r != 0 && r != PK_HAL_ENOSYS) {
+        *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
+        return 1;
+    }
+    sg->spindle_cur = v;
+    return 0;
+}
+
 /* One chunk of the ring's tail (c, at index t) that is not a plain STEPS
  * chunk with no watch armed (isr_next_chunk takes those itself): a line
  * block's set-up, tool, spindle, waits, SLOW events, or any chunk while a
@@ -923,14 +936,8 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
                 return 1;
             }
         }
-        if (c->spindle != sg->spindle_cur) {
-            int r = pk_hal_spindle_write(hal, c->spindle);
-            if (r != 0 && r != PK_HAL_ENOSYS) {
-                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                return 1;
-            }
-            sg->spindle_cur = c->spindle;
-        }
+        if (c->spindle != sg->spindle_cur && isr_spindle(sg, hal, c->spindle, ret))
+            return 1;
         {
             uint8_t bres = 0u, bit = 1u;
             for (unsigned i = 0; i < sg->axes; i++, bit = (uint8_t)(bit << 1)) {
@@ -987,14 +994,8 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
             *ret = isr_alarm(sg, PK_ALARM_TOOL_WRITE);
             return 1;
         }
-        if (c->kind == PK_SGC_SPINDLE) {
-            int r = pk_hal_spindle_write(hal, c->spindle);
-            if (r != 0 && r != PK_HAL_ENOSYS) {
-                *ret = isr_alarm(sg, PK_ALARM_SPINDLE_WRITE);
-                return 1;
-            }
-            sg->spindle_cur = c->spindle;
-        }
+        if (c->kind == PK_SGC_SPINDLE && isr_spindle(sg, hal, c->spindle, ret))
+            return 1;
         uint32_t w = c->u.ticks;
         if (w == 0u)
             w = 1u;
