@@ -179,14 +179,15 @@ static void handle_line(struct avrsim *s, const char *l)
             if (s->n_lat == s->cap_lat) {
                 size_t c = s->cap_lat ? 2 * s->cap_lat : 256;
                 double *p = realloc(s->lat_ms, c * sizeof *p);
-                if (p != NULL) {
-                    s->lat_ms = p;
-                    s->cap_lat = c;
+                if (p == NULL) { /* (a latency figure must not silently leave samples out) */
+                    fprintf(stderr, "plotkin avrsim: out of memory for the status latencies\n");
+                    exit(1);
                 }
+                s->lat_ms = p;
+                s->cap_lat = c;
             }
-            if (s->n_lat < s->cap_lat)
-                s->lat_ms[s->n_lat++] =
-                    (double)(pk_avrchip_cycles(&s->chip) - s->poll_sent) * 1000.0 / (double)s->b->f_cpu;
+            s->lat_ms[s->n_lat++] =
+                (double)(pk_avrchip_cycles(&s->chip) - s->poll_sent) * 1000.0 / (double)s->b->f_cpu;
         }
         snprintf(s->status, sizeof s->status, "%s", l);
         s->statuses++;
@@ -1196,6 +1197,7 @@ int cmd_avrsim(int argc, char **argv)
         fclose(csv);
     free(syms);
     free(s.chip.hist);
+    free(s.lat_ms);
     pk_decoded_free(&s.res);
     pk_avrchip_close(&s.chip);
     return rc;
