@@ -72,13 +72,13 @@ static double dir_limit(const struct pk_bound_cfg *c, const double d[3], const d
 }
 
 /* The cap of the vertex between the segment of direction t1 (unit), length
- * l1, speed cap f1 and the next one (t2, l2, f2): the tube circle, or Grbl's
- * junction rule when tol is 0. */
-static double corner_cap2(const struct pk_bound *b, double tol, const double t1[3], double l1, double f1,
-                          const double t2[3], double l2, double f2)
+ * l1, squared speed cap f1_2 and the next one (t2, l2, f2_2): the tube
+ * circle, or Grbl's junction rule when tol is 0. */
+static double corner_cap2(const struct pk_bound *b, double tol, const double t1[3], double l1, double f1_2,
+                          const double t2[3], double l2, double f2_2)
 {
     double dot = t1[0] * t2[0] + t1[1] * t2[1] + t1[2] * t2[2];
-    double cap = f1 < f2 ? f1 * f1 : f2 * f2; /* (mm/s)^2 */
+    double cap = f1_2 < f2_2 ? f1_2 : f2_2; /* (mm/s)^2 */
     if (dot > 1.0 - 1e-15)
         return cap;
     double phi = acos(dot < -1.0 ? -1.0 : dot);
@@ -178,7 +178,7 @@ static double vertex_cap2(const struct pk_bound *b, size_t i, double piece_tol)
         t2[a] = (v[i + 1].p[a] - v[i].p[a]) / v[i + 1].len;
     }
     double tol = v[i + 1].tol; /* in force for the move that turns */
-    double cap2 = corner_cap2(b, tol, t1, v[i].len, sqrt(v[i].f2), t2, v[i + 1].len, sqrt(v[i + 1].f2));
+    double cap2 = corner_cap2(b, tol, t1, v[i].len, v[i].f2, t2, v[i + 1].len, v[i + 1].f2);
     if (tol > 0.0)
         cap2 = windows_cap2(b, i, piece_tol, cap2);
     return cap2;
