@@ -14,6 +14,7 @@
  * (serial.c: every realtime byte sets a flag in the receive interrupt, and
  * any other byte >= 0x80 is thrown away there).
  */
+#include <stdint.h>
 #include <string.h>
 #include "th.h"
 #include "pk_grbl.h"
@@ -62,19 +63,27 @@ static struct pk_grbl G;
 static char OUT[4096];
 static size_t outn;
 
+/* One main-loop pass, then a reader takes up to `most` bytes of output
+ * (SIZE_MAX: all of it). */
+static void poll_once(size_t most)
+{
+    pk_grbl_poll(&G);
+    size_t k;
+    uint8_t b[64];
+    while (most > 0 && (k = pk_uart_tx_pop(&U, b, most < sizeof b ? most : sizeof b)) > 0) {
+        most -= k;
+        if (outn + k < sizeof OUT) {
+            memcpy(OUT + outn, b, k);
+            outn += k;
+            OUT[outn] = 0;
+        }
+    }
+}
+
 static void poll_n(int n)
 {
-    for (int i = 0; i < n; i++) {
-        pk_grbl_poll(&G);
-        size_t k;
-        uint8_t b[64];
-        while ((k = pk_uart_tx_pop(&U, b, sizeof b)) > 0)
-            if (outn + k < sizeof OUT) {
-                memcpy(OUT + outn, b, k);
-                outn += k;
-                OUT[outn] = 0;
-            }
-    }
+    for (int i = 0; i < n; i++)
+        poll_once(SIZE_MAX);
 }
 
 static void rx(const char *s, size_t n)
@@ -151,15 +160,8 @@ static void test_the_engine_wants_the_cpu_while_a_realtime_command_or_its_answer
     rx("$$\n", 3);
     bool wanted = false;
     for (int i = 0; i < 200; i++) {
-        pk_grbl_poll(&G);
+        poll_once(8); /* a slow reader: 8 bytes a main loop run */
         wanted |= pk_grbl_wants_cpu(&G);
-        uint8_t b[8]; /* a slow reader: 8 bytes a main loop run */
-        size_t k = pk_uart_tx_pop(&U, b, sizeof b);
-        if (outn + k < sizeof OUT) {
-            memcpy(OUT + outn, b, k);
-            outn += k;
-            OUT[outn] = 0;
-        }
     }
     TH_EXPECT(wanted);
     TH_EXPECT(strstr(OUT, "$0=") != NULL);

@@ -25,8 +25,10 @@
  * position, and a piece of the smoothed path could move X most of a
  * millimetre (inside one X step) while Y made a single 7 um step; the block
  * was timed by its whole steps' length, so the axes' limits cut its speed by
- * the ratio of the two. A block's steps' part now runs the larger of the
- * steps' and the exact displacement's length (pk_planner.c).
+ * the ratio of the two, and its junctions took the whole steps' direction
+ * (one Y step, then one X step: a 90 degree turn on a straight line). A
+ * block is now timed, directed and limited by its exact displacement
+ * (pk_planner.c).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,6 +43,14 @@ int th_main(int argc, char **argv);
 
 static struct pk_machine M;
 static struct pk_rec R;
+
+/* A fresh recording HAL and the machine M on it. */
+static int machine_on(const struct pk_motion_cfg *c)
+{
+    pk_rec_free(&R);
+    pk_rec_init(&R, TICK_HZ);
+    return pk_machine_init(&M, c, &R.hal);
+}
 
 static void setup(void)
 {
@@ -60,9 +70,7 @@ static void setup(void)
     c.smooth.scheme = PK_SCHEME_DLG;
     c.smooth.depth = 1;
     c.smooth.sharp_turn_deg = 180;
-    pk_rec_free(&R);
-    pk_rec_init(&R, TICK_HZ);
-    TH_EXPECT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
+    TH_EXPECT_EQ(machine_on(&c), PK_MOTION_OK);
 }
 
 static void run_until_idle(void)
@@ -150,9 +158,7 @@ static void test_two_exact_moves_end_exactly_on_the_commanded_step(void)
     c.pen_settle_ms = 15;
     c.pen_down_level = 1;
     c.smooth.mode = PK_SMOOTH_OFF;
-    pk_rec_free(&R);
-    pk_rec_init(&R, TICK_HZ);
-    TH_ASSERT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
+    TH_ASSERT_EQ(machine_on(&c), PK_MOTION_OK);
     pk_um_t a[PK_AXES] = { -40, -40 }, b[PK_AXES] = { 1960, -40 };
     TH_ASSERT_EQ(pk_machine_move(&M, a, 300000, PK_MOVE_FEED), PK_MOTION_OK);
     TH_ASSERT_EQ(pk_machine_move(&M, b, 300000, PK_MOVE_FEED), PK_MOTION_OK);
@@ -189,9 +195,7 @@ static void test_a_coarse_axis_runs_its_exact_motion_at_the_commanded_feed(void)
     c.smooth.degree = 3;
     c.smooth.tolerance_um = 1;
     c.smooth.sharp_turn_deg = 180;
-    pk_rec_free(&R);
-    pk_rec_init(&R, TICK_HZ);
-    TH_ASSERT_EQ(pk_machine_init(&M, &c, &R.hal), PK_MOTION_OK);
+    TH_ASSERT_EQ(machine_on(&c), PK_MOTION_OK);
     const uint32_t feed = 3972000u; /* um/min */
     pk_um_t a[PK_AXES] = { -4520, -40 }, b[PK_AXES] = { -9040, -80 };
     TH_ASSERT_EQ(pk_machine_move(&M, a, feed, PK_MOVE_FEED), PK_MOTION_OK);

@@ -418,6 +418,20 @@ static void test_a_failing_direction_write_stops_before_any_step_in_the_wrong_di
     TH_EXPECT_EQ(p[0], 0);
 }
 
+/* Events of two recordings of the same length that differ in kind, lines
+ * or levels (and in time, if `ticks`). */
+static size_t event_diffs(const struct pk_rec *ra, const struct pk_rec *rb, bool ticks)
+{
+    size_t diff = 0;
+    for (size_t k = 0; k < ra->n; k++) {
+        const struct pk_rec_event *a = &ra->ev[k], *b = &rb->ev[k];
+        if ((ticks && a->tick != b->tick) || a->kind != b->kind || a->mask != b->mask
+            || a->levels != b->levels)
+            diff++;
+    }
+    return diff;
+}
+
 static void test_a_long_full_queue_changes_nothing_in_the_output(void)
 {
     struct pk_motion_cfg c = cfg_default();
@@ -437,14 +451,7 @@ static void test_a_long_full_queue_changes_nothing_in_the_output(void)
     TH_EXPECT_EQ(ra.sent, n);
     TH_EXPECT_EQ(rb.sent, n);
     TH_ASSERT_EQ(R.n, R2.n);
-    size_t diff = 0;
-    for (size_t k = 0; k < R.n; k++) {
-        const struct pk_rec_event *a = &R.ev[k], *b = &R2.ev[k];
-        if ((a->tick != b->tick || a->kind != b->kind || a->mask != b->mask
-             || a->levels != b->levels) )
-            diff++;
-    }
-    TH_EXPECT_EQ(diff, 0);
+    TH_EXPECT_EQ(event_diffs(&R, &R2, true), 0);
 }
 
 /* A caller with a realtime command pending (pk_machine_set_yield) gets the
@@ -479,13 +486,7 @@ static void test_a_poll_that_yields_to_realtime_work_changes_nothing_in_the_path
             TH_EXPECT(rb.most_planned <= 1u);
         TH_ASSERT_EQ(R.n, R2.n);
         TH_ASSERT(R.n > 1000u);
-        size_t diff = 0;
-        for (size_t k = 0; k < R.n; k++) {
-            const struct pk_rec_event *a = &R.ev[k], *b = &R2.ev[k];
-            if (a->kind != b->kind || a->mask != b->mask || a->levels != b->levels)
-                diff++;
-        }
-        TH_EXPECT_EQ(diff, 0);
+        TH_EXPECT_EQ(event_diffs(&R, &R2, false), 0);
         const double la = (double)(R.ev[R.n - 1].tick - R.ev[0].tick);
         const double lb = (double)(R2.ev[R.n - 1].tick - R2.ev[0].tick);
         TH_EXPECT(lb >= la && lb <= la * 1.005);
