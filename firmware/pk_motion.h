@@ -436,8 +436,9 @@ uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks);
 /** Feed hold (Grbl '!'): decelerate along the path within the acceleration
  *  limits, stop, keep the remaining queue and the exact position.
  *  The deceleration starts after the chunks already handed to the timer (at
- *  most PK_SG_CHUNKS chunks of at most 2 ms each), so it begins within about
- *  PK_SG_CHUNKS * 2 ms plus one poll period.
+ *  most PK_SG_CHUNKS chunks, each at most one segment: 1/PK_SG_SEG_HZ, or up
+ *  to 4 times that while cruising, and at most 2^14 ticks), so it begins
+ *  within about PK_SG_CHUNKS such segments plus one poll period.
  *  State becomes HOLDING, then HOLD. No effect when idle or in ALARM. MAIN. */
 void pk_machine_hold(struct pk_machine *m);
 

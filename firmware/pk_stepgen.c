@@ -3,7 +3,7 @@
  * callback). See pk_stepgen.h for the scheme; the kinematics are below.
  *
  * Segments of constant time. The main loop cuts the tail block into
- * segments of seg_ticks (2 ms, at most 2^14 ticks), like Grbl's segment
+ * segments of seg_ticks (1/PK_SG_SEG_HZ: 2 ms by default, at most 2^14 ticks), like Grbl's segment
  * buffer: over one segment the speed goes from v0 to v1 = v0 +- a seg_t
  * (accelerate towards the nominal, cruise, or decelerate towards the
  * exit), so the segment covers ds = (v0 + v1)/2 seg_t. Its events are placed
@@ -213,13 +213,18 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
     sg->tick_hz = tick_hz;
     sg->pulse_ticks = pulse_ticks ? pulse_ticks : 1u;
     sg->dir_setup_ticks = dir_setup_ticks;
-    sg->seg_max = tick_hz / 500u; /* 2 ms */
+    sg->seg_max = tick_hz / PK_SG_SEG_HZ; /* 2 ms by default */
     if (sg->seg_max > PK_SG_CHUNK_TICKS_MAX)
         sg->seg_max = PK_SG_CHUNK_TICKS_MAX;
     if (sg->seg_max < 16u)
         sg->seg_max = 16u;
+    sg->seg_cap = tick_hz / PK_SG_SEG_CAP_HZ; /* 8 ms by default */
+    if (sg->seg_cap > PK_SG_CHUNK_TICKS_MAX)
+        sg->seg_cap = PK_SG_CHUNK_TICKS_MAX;
+    if (sg->seg_cap < sg->seg_max)
+        sg->seg_cap = sg->seg_max;
     /* per block with full-length segments: ds = vsum g, dv = accel kdv */
-    /* (seg_max <= max(tick_hz / 500, 16): both quotients are below 2^32, so
+    /* (seg_max <= max(tick_hz / 50, 16): both quotients are below 2^32, so
      * the saturating helper gives the plain quotient) */
     sg->g_max_q24 = pk_muldiv_u32(8u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
     sg->kdv_q24 = pk_muldiv_u32(16u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
@@ -354,7 +359,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     sg->ev_r = span % b->events;
     sg->ev_next = b->lead_q8 + sg->ev_q;
     sg->ev_rem = sg->ev_r;
-    /* The segment: 2 ms, or shorter so that at twice the nominal speed
+    /* The segment: seg_max (2 ms by default), or shorter so that at twice the nominal speed
      * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
      * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
      * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
@@ -385,7 +390,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     /* longer segments (x2, x4) where the event limit and the recurrence's
      * range allow: see seg_level */
     uint8_t lv = 0;
-    while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= PK_SG_CHUNK_TICKS_MAX
+    while (lv < PK_SG_SEG_LEVELS && (seg << (lv + 1u)) <= sg->seg_cap
            && lim >= (sg->seg_max << (lv + 1u)))
         lv++;
     sg->lvl_max = lv;

@@ -3,7 +3,7 @@
  * step/dir pulses (timer callback, integer adds only).
  *
  * Main loop (pk_sg_prep): takes the tail block of the motion queue and cuts
- * its trapezoidal speed profile into segments of constant time (2 ms or
+ * its trapezoidal speed profile into segments of constant time (1/PK_SG_SEG_HZ, 2 ms by default, or
  * less) of constant acceleration (like Grbl's segment buffer, but with the
  * step intervals ramping inside a segment instead of one speed per segment;
  * the details are at the top of pk_stepgen.c). A segment's events (one event = one step
@@ -46,14 +46,39 @@
 #include "hal.h"
 #include "pk_mq.h"
 
-/** Segments of 2 ms may be doubled this many times (to 8 ms) while the speed
- * changes slowly enough (PK_SG_RAMP_SHIFT) or not at all: fewer segments to
- * prepare per second at speed. */
+/** Base segments per second: a block's speed profile is cut into segments
+ * of 1/PK_SG_SEG_HZ s (default 2 ms; never longer than 2^14 ticks, never
+ * shorter than 16, whatever the timer's rate: every range argument of the
+ * preparation is stated for at most 2^14 ticks). Each segment costs the main
+ * loop one preparation (a few 64-bit products, a division where the speed
+ * changes), whatever its length: a chip whose main loop cannot keep the ring
+ * filled at speed takes longer segments (the AVR boards: 250, i.e. 4 ms,
+ * still 2.5 times finer than Grbl's 10 ms, and with the interval ramp inside
+ * each segment that Grbl's constant-speed segments do not have). */
+#ifndef PK_SG_SEG_HZ
+#define PK_SG_SEG_HZ 500u
+#endif
+#if PK_SG_SEG_HZ < 50 || PK_SG_SEG_HZ > 5000
+#error "PK_SG_SEG_HZ must be 50..5000 segments per second"
+#endif
+/** Base segments may be doubled this many times (2 ms -> 8 ms) while the
+ * speed changes slowly enough (PK_SG_RAMP_SHIFT) or not at all, up to
+ * 1/PK_SG_SEG_CAP_HZ s and 2^14 ticks: fewer segments to prepare per second
+ * at speed. The cap is a time, so that the segments (and the step events
+ * they place) are the same at any timer rate: `plotkin sim` at 1 MHz and an
+ * AVR at 2 MHz cut the same segments (the chunks of prepared events ahead of
+ * the timer, which a fired probe runs out before it stops, are the same). */
 #ifndef PK_SG_SEG_LEVELS
 #define PK_SG_SEG_LEVELS 2u
 #endif
 /** A segment is doubled only while its speed change is at most 2^-this of
  * the speed (the interval ramp's model error is second order in it). */
+#ifndef PK_SG_SEG_CAP_HZ
+#define PK_SG_SEG_CAP_HZ 125u
+#endif
+#if PK_SG_SEG_CAP_HZ < 50 || PK_SG_SEG_CAP_HZ > PK_SG_SEG_HZ
+#error "PK_SG_SEG_CAP_HZ must be 50..PK_SG_SEG_HZ"
+#endif
 #ifndef PK_SG_RAMP_SHIFT
 #define PK_SG_RAMP_SHIFT 4u
 #endif
@@ -204,7 +229,8 @@ struct pk_stepgen {
                                     diagnostic: 0 whenever the main loop keeps up) */
     volatile uint32_t v_um_s;  /**< speed of the chunk executing (MAIN reads; a
                                     torn read on 8-bit targets only skews a report) */
-    uint32_t seg_max;          /**< prep: longest segment, ticks (2 ms, <= 2^14) */
+    uint32_t seg_max;          /**< prep: base segment, ticks (1/PK_SG_SEG_HZ s, 16..2^14) */
+    uint32_t seg_cap;          /**< prep: longest segment, ticks (1/PK_SG_SEG_CAP_HZ s, seg_max..2^14) */
     uint32_t ck_vsum, ck_kq;   /**< the segment clock: for this speed sum, the time of */
     uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
     uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
