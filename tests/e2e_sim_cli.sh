@@ -36,6 +36,16 @@ assert all(v <= 100.0 * 1.01 for v in j["max_speed_mm_s"]), j["max_speed_mm_s"]
 assert 0 <= j["deviation_p95_mm"] <= j["max_deviation_mm"] and j["deviation_line"] > 0
 assert j["deviation_points"] > 1000 and j["path_forced_drops"] == 0 and j["path_primitives"] == j["moves"]
 PYEOF'
+check "--json over_limits / speed_jumps say per axis what the summary's limits line says" \
+  '$P sim "$EX" >"$tmp/ex.txt" 2>/dev/null; $PY - "$tmp/ex.json" "$tmp/ex.txt" <<"PYEOF"
+import json, sys
+j = json.load(open(sys.argv[1]))
+lim = [l for l in open(sys.argv[2]) if l.strip().startswith("limits")][0]
+for a, name in enumerate("XYZ"[:j["axes"]]):
+    over = ("%s over its max rate" % name in lim) or ("%s over its acceleration" % name in lim)
+    assert j["over_limits"][a] == over, (name, j["over_limits"], lim)
+    assert j["speed_jumps"][a] == ("%s speed jumps" % name in lim), (name, j["speed_jumps"], lim)
+PYEOF'
 check "--svg writes well-formed SVG with the commanded and the executed path" \
   '$PY -c "import sys,xml.etree.ElementTree as E; r=E.parse(sys.argv[1]).getroot(); p=[e for e in r.iter() if e.tag.endswith(\"path\")]; sys.exit(0 if len(p) > 20 and any(\"stroke-dasharray\" in e.attrib for e in p) else 1)" "$tmp/ex.svg"'
 $P sim "$EX" --trace "$tmp/t2.csv" >/dev/null 2>&1; rc=$?
