@@ -96,6 +96,8 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim)
     p->lim = *lim;
     p->ovr_feed_pct = 100u;
     p->ovr_rapid_pct = 100u;
+    p->nom_feed_pct = 100u;
+    p->nom_rapid_pct = 100u;
 }
 
 void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
@@ -316,6 +318,8 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->v_lim = v_lim;
     b->v_req = feed;
     b->v2_nom = pk_planner_nominal_v2(p, b);
+    if (p->ovr_feed_pct != p->nom_feed_pct || p->ovr_rapid_pct != p->nom_rapid_pct)
+        p->nom_dirty = true;
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
         struct pk_planner_dyn dyn;
@@ -412,11 +416,24 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
     p->n_final = 0;
     if (n == 0)
         return;
+    /* Nominal speeds: a block gets its own when it is added (with the
+     * overrides of that moment, pk_planner_add_line); all of them again only
+     * when the overrides changed since (each is two 64-bit divisions, the
+     * bulk of a replan on an 8-bit core: 16 blocks, ~50,000 cycles, redone
+     * every replan before). The same values as recomputing them every time
+     * (a block added under other overrides than the rest sets nom_dirty). A
+     * LINE block pushed without pk_planner_add_line has v2_nom = 0 (never a
+     * nominal: at least 1) and gets one here. */
+    const bool ovr_changed =
+        p->nom_dirty || p->ovr_feed_pct != p->nom_feed_pct || p->ovr_rapid_pct != p->nom_rapid_pct;
     for (uint32_t k = 0; k < n; k++) {
         struct pk_block *b = pk_mq_at(q, k);
-        if (b->type == PK_BLK_LINE)
+        if (b->type == PK_BLK_LINE && (ovr_changed || b->v2_nom == 0u))
             b->v2_nom = pk_planner_nominal_v2(p, b);
     }
+    p->nom_feed_pct = p->ovr_feed_pct;
+    p->nom_rapid_pct = p->ovr_rapid_pct;
+    p->nom_dirty = false;
     /* Reverse pass: the newest block ends at rest. next_entry = entry ceiling
      * of block k+1 as far as stopping allows; limited = it depends on the
      * queue's end (it was not capped by anything that stays). */

@@ -181,6 +181,68 @@ static void test_a_final_plan_never_changes_when_blocks_are_appended(void)
     TH_EXPECT_EQ(all_when_known, 400); /* a known end makes every plan final */
 }
 
+/* The replan keeps the nominal speeds it computed (pk_planner_replan: again
+ * only when the overrides changed): over random sequences of appended
+ * blocks, override changes, executed blocks and replans, every replan plans
+ * exactly what a replan from scratch plans (a copy of the queue with every
+ * nominal cleared, which makes the planner compute each one again). */
+static void test_a_replan_plans_what_a_replan_from_scratch_plans(void)
+{
+    static struct pk_mq q, q2;
+    static struct pk_planner p, p2;
+    struct pk_planner_limits lim;
+    memset(&lim, 0, sizeof lim);
+    lim.axes = 2;
+    lim.max_rate[0] = 6000000;
+    lim.max_rate[1] = 4200000;
+    lim.accel[0] = 1000000;
+    lim.accel[1] = 500000;
+    lim.junction_dev_um = 20;
+    lim.accel_min = 500000;
+    static const uint16_t feed[] = { 10, 50, 100, 100, 120, 200 }, rapid[] = { 25, 50, 100 };
+    unsigned replans = 0, diff = 0, ovr_changes = 0;
+    for (int run = 0; run < 300; run++) {
+        pk_mq_init(&q);
+        pk_planner_init(&p, &lim);
+        for (int op = 0; op < 60; op++) {
+            unsigned r = (unsigned)(xr() % 8u);
+            if (r < 4u && pk_mq_room(&q) > 0) {
+                int32_t d[PK_AXES] = { 0 };
+                add_random(&p, &q, d);
+            } else if (r == 4u) {
+                pk_planner_set_override(&p, feed[xr() % TH_COUNT(feed)], rapid[xr() % TH_COUNT(rapid)]);
+                ovr_changes++;
+            } else if (r == 5u && pk_mq_count(&q) > 0) {
+                pk_mq_pop(&q);
+            }
+            if (pk_mq_count(&q) == 0 || xr() % 3u == 0u)
+                continue;
+            struct pk_block *b0 = pk_mq_at(&q, 0);
+            uint32_t rem = b0->type == PK_BLK_LINE ? b0->len_q8 - (uint32_t)(xr() % (b0->len_q8 + 1u)) : 0u;
+            pk_v2_q4_t v2_now = b0->type == PK_BLK_LINE ? (pk_v2_q4_t)(xr() % (b0->v2_nom + 1u)) : 0u;
+            bool end_known = xr() % 4u == 0u;
+            q2 = q;
+            p2 = p;
+            for (uint32_t k = 0; k < pk_mq_count(&q2); k++) {
+                struct pk_block *c = pk_mq_at(&q2, k);
+                if (c->type == PK_BLK_LINE)
+                    c->v2_nom = 0u;
+            }
+            pk_planner_replan(&p, &q, v2_now, rem, end_known);
+            pk_planner_replan(&p2, &q2, v2_now, rem, end_known);
+            replans++;
+            diff += pk_planner_final(&p) != pk_planner_final(&p2);
+            for (uint32_t k = 0; k < pk_mq_count(&q); k++) {
+                const struct pk_block *a = pk_mq_at(&q, k), *c = pk_mq_at(&q2, k);
+                diff += a->v2_nom != c->v2_nom || a->v2_exit != c->v2_exit || a->end_limited != c->end_limited;
+            }
+        }
+    }
+    TH_EXPECT_EQ(diff, 0);
+    TH_EXPECT(replans > 5000);
+    TH_EXPECT(ovr_changes > 1000);
+}
+
 /* A polygon with chords c on a circle of radius R turns by c/R per vertex:
  * the curvature limit is v^2 = a R for the worst-placed axis (the axis whose
  * velocity changes most at that vertex), independent of c. */
@@ -225,6 +287,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_micrometres_round_to_the_nearest_step_like_a_double_reference),
         TH_CASE(test_replanned_speeds_respect_every_constraint_on_random_polylines),
         TH_CASE(test_a_final_plan_never_changes_when_blocks_are_appended),
+        TH_CASE(test_a_replan_plans_what_a_replan_from_scratch_plans),
         TH_CASE(test_the_curvature_limit_is_a_times_the_radius),
         TH_CASE(test_a_straight_continuation_is_not_slowed_by_the_junction),
     };
