@@ -20,7 +20,9 @@ it is what the board does, HAL and interrupts included. Per board:
      (80 steps/mm, 50,000 mm/s^2 so that the cruise dominates), bisected; a
      rate is sustained when the chip has no underrun and its motion time is
      within 1 % of the planned one;
-  3. the bundled example at F6000 (80 steps/mm), on-chip vs planned time.
+  3. the bundled example at F6000 (80 steps/mm), on-chip vs planned time, and
+     the stalls while moving in the chip's pin trace (the ring ran dry at
+     speed), against the same count on `plotkin sim`'s trace.
 
 Prints tables; never a pass/fail verdict on timing. Exits 1, after printing
 what it could, if a measurement was impossible (an image that does not fit
@@ -70,17 +72,54 @@ def avrsim(board, prog, conf_lines, tmp, extra=(), timeout=900):
     return d, None
 
 
-def hostsim(board, prog, conf_lines, tmp):
+def hostsim(board, prog, conf_lines, tmp, extra=()):
     host = os.path.join(BUILD, 'firmware', board, 'host', 'plotkin')
     gc = os.path.join(tmp, 'h.gcode')
     cf = os.path.join(tmp, 'h.conf')
     open(gc, 'w').write(prog)
     open(cf, 'w').write('\n'.join(BOARD_CONFIG.get(board, []) + conf_lines) + '\n')
-    p = subprocess.run([host, 'sim', gc, '--config', cf, '--json'], capture_output=True, text=True)
+    p = subprocess.run([host, 'sim', gc, '--config', cf, '--json'] + list(extra), capture_output=True, text=True)
     try:
         return json.loads(p.stdout)
     except ValueError:
         return None
+
+
+def stalls(trace_csv):
+    """Stalls while moving, from a pin trace (every axis's step edges
+    merged): a step interval over 4 times the median of the 8 intervals
+    before it and of the 8 after it, and over 1 ms, with no pen change in it
+    (a planned stop). A ring that runs dry at speed stops the steps at once
+    and starts them again at the same rate: such a gap between equal
+    intervals. A planned motion has a few (a corner where one axis stops and
+    the other starts): the same detector on `plotkin sim`'s trace counts
+    those. Returns (count, total ms, longest ms)."""
+    import bisect
+    import statistics
+    ev, pen = [], []
+    for ln in open(trace_csv):
+        if ln.startswith('#') or ln.startswith('tick'):
+            continue
+        f = ln.rstrip().split(',')
+        if f[2].endswith('.step') and f[3] == '1':
+            ev.append(float(f[1]))
+        elif f[2] == 'pen':
+            pen.append(float(f[1]))
+    ev.sort()
+    pen.sort()
+    gaps = []
+    for i in range(9, len(ev) - 9):
+        d = ev[i] - ev[i - 1]
+        if d <= 0.001:
+            continue
+        k = bisect.bisect_left(pen, ev[i - 1])
+        if k < len(pen) and pen[k] < ev[i]:
+            continue
+        mb = statistics.median([ev[j] - ev[j - 1] for j in range(i - 8, i)])
+        ma = statistics.median([ev[j + 1] - ev[j] for j in range(i, i + 8)])
+        if d > 4 * max(mb, ma):
+            gaps.append(d)
+    return len(gaps), 1e3 * sum(gaps), 1e3 * max(gaps or [0.0])
 
 
 def fnc(d, name):
@@ -268,14 +307,19 @@ def main():
             drawing(b, 'the bundled example (host-sim/examples/flower.gcode)', flower, [], tmp, elf, syms)
             max_rate(b, tmp)
             f6 = re.sub(r'F3000', 'F6000', flower)
-            d, err = avrsim(b, f6, [], tmp)
-            h = hostsim(b, f6, [], tmp)
+            ct, ht = os.path.join(tmp, 'f6chip.csv'), os.path.join(tmp, 'f6host.csv')
+            d, err = avrsim(b, f6, [], tmp, ['--trace', ct])
+            h = hostsim(b, f6, [], tmp, ['--trace', ht])
             if d is None or h is None:
                 impossible.append('%s, flower at F6000: %s' % (b, err))
             else:
                 print('\n%s: the bundled example at F6000, 80 steps/mm, smoothed: chip %.2f s, planned %.2f s'
-                      ' (x%.2f), %d underruns' % (b, d['motion_s'], h['sim_time_s'], d['motion_s'] / h['sim_time_s'],
+                      ' (x%.3f), %d underruns' % (b, d['motion_s'], h['sim_time_s'], d['motion_s'] / h['sim_time_s'],
                                                    d['timer_starts'] - 1))
+                sc, sh = stalls(ct), stalls(ht)
+                print('  stalls while moving (pin trace: a step gap over 4x the intervals around it, > 1 ms, no pen'
+                      ' change): chip %d (%.1f ms in all, longest %.1f ms), plotkin sim %d (%.1f ms, longest %.1f ms)'
+                      % (sc + sh))
     if impossible:
         print('\nbench-avr: these measurements were impossible:')
         for m in impossible:

@@ -24,7 +24,14 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # them and let the ring run dry (chip 31.44 s against 30.47 s planned, 124
 # timer restarts); at 4 ms: 30.67 s against 30.48 s. 2.5 times finer than
 # Grbl's 10 ms segments, each with its interval ramp.
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8 -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=8 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4 \
+# PK_SG_CHUNKS=16: in the curves of the bundled example at F6000 a block
+# lasts a few ms and takes a ring slot of its own besides its segments, so 8
+# slots held ~12 ms of motion, less than one stroke-smoothing pass of the main
+# loop: the ring ran dry mid-motion 31 times (step gaps of 3-22 ms at up to
+# 8,000 steps/s, found in the pin trace; `make bench-avr` counts them). 16:
+# 8 times. RAM: 304 B (7,005 of 8,192 B with the deepest stack); a feed
+# hold starts within 16 segments (64 ms at speed; Grbl: 6 of up to 10 ms).
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8 -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=16 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4 \
                -DPK_GRBL_INPUTS=1
 # The host comparator (`plotkin sim` with this build's knobs) has no AVR HAL.
 BOARD_HOST_DEFS := -UPK_SG_PULSE_FN
