@@ -39,3 +39,32 @@ int32_t pk_ratio_i32(int32_t num, unsigned s, uint32_t den)
 {
     return (int32_t)(((int64_t)num * ((int64_t)1 << s)) / (int64_t)den);
 }
+
+uint32_t pk_frac_q30_soft(uint32_t x, uint32_t r)
+{
+    /* the integer part is 0 or 1 (x <= r); then 30 fraction bits, each by
+     * one compare and subtract: rem < r < 2^31, so 2 rem < 2^32 */
+    uint32_t q = 0, rem = x;
+    if (rem >= r) {
+        rem -= r;
+        q = 1;
+    }
+    for (uint8_t i = 0; i < 30u; i++) {
+        rem <<= 1;
+        q <<= 1;
+        if (rem >= r) {
+            rem -= r;
+            q |= 1u;
+        }
+    }
+    return q;
+}
+
+uint32_t pk_frac_q30(uint32_t x, uint32_t r)
+{
+#if PK_SOFT_DIV
+    return pk_frac_q30_soft(x, r);
+#else
+    return (uint32_t)(((uint64_t)x << 30) / r);
+#endif
+}

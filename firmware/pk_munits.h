@@ -29,6 +29,18 @@
 #define PK_FLASH_FIRST 0
 #endif
 
+/* PK_SOFT_DIV=1: the few divisions whose quotient and remainder fit 32 bits
+ * are done by shift and subtract in 32-bit words instead of libgcc's 64-bit
+ * division (pk_frac_q30): cores without a divide instruction and with
+ * narrow registers. Same results. */
+#ifndef PK_SOFT_DIV
+#if UINTPTR_MAX <= 0xFFFFu
+#define PK_SOFT_DIV 1
+#else
+#define PK_SOFT_DIV 0
+#endif
+#endif
+
 typedef uint32_t pk_um_min_t;
 #define PK_UM_MIN_MAX 60000000u          /**< 60 m/min = 1 m/s */
 
@@ -92,5 +104,18 @@ uint32_t pk_mulshr_u32(uint32_t a, uint32_t b, unsigned s);
  *  (den > 0, |num| * 2^s < 2^63); the caller's range argument keeps the
  *  quotient within int32 (direction cosines in Q1.30: |num| <= den). */
 int32_t pk_ratio_i32(int32_t num, unsigned s, uint32_t den);
+
+/** floor(x * 2^30 / r) for 0 <= x <= r, 0 < r < 2^31 (a ratio at most 1
+ *  in Q1.30: the decimator's unit directions and cone angles); at most 2^30.
+ *  On an 8- or 16-bit core (PK_SOFT_DIV, by default where UINTPTR_MAX <=
+ *  0xFFFF) a 30-step shift-and-subtract division whose remainder stays below
+ *  r < 2^31, so it is 32-bit throughout (~650 AVR cycles against ~1,360 for
+ *  the libgcc 64-bit division it replaces); elsewhere the 64-bit division.
+ *  The same results either way (tests/test_motion_planner.c). */
+uint32_t pk_frac_q30(uint32_t x, uint32_t r);
+
+/** The shift-and-subtract form of pk_frac_q30, on every build (so that the
+ *  host tests check it against the 64-bit division). */
+uint32_t pk_frac_q30_soft(uint32_t x, uint32_t r);
 
 #endif

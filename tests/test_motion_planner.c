@@ -40,6 +40,32 @@ static void test_isqrt64_is_the_exact_floor_everywhere(void)
     TH_EXPECT_EQ(bad, 0);
 }
 
+/* pk_frac_q30 (the decimator's ratios, 32-bit shift and subtract on 8-bit
+ * cores) is the floor of the 64-bit quotient for every x <= r < 2^31; its
+ * soft form is checked here on the host, where pk_frac_q30 itself divides. */
+static void test_frac_q30_is_the_exact_floor_of_the_64_bit_quotient(void)
+{
+    static const uint32_t er[] = { 1, 2, 3, 255, 256, 65535, 65536, 0x7FFFFFFEu, 0x7FFFFFFFu };
+    unsigned bad = 0;
+    for (unsigned k = 0; k < TH_COUNT(er); k++) {
+        uint32_t r = er[k], xs[] = { 0, 1, r / 2u, r - 1u, r };
+        for (unsigned j = 0; j < TH_COUNT(xs); j++) {
+            uint32_t x = xs[j] > r ? r : xs[j];
+            uint32_t want = (uint32_t)(((uint64_t)x << 30) / r);
+            bad += pk_frac_q30_soft(x, r) != want || pk_frac_q30(x, r) != want;
+        }
+    }
+    for (int k = 0; k < 1000000; k++) {
+        uint32_t r = (uint32_t)(xr() >> (33 + xr() % 31)) | 1u;
+        if (r > 0x7FFFFFFFu)
+            r = 0x7FFFFFFFu;
+        uint32_t x = (uint32_t)(xr() % ((uint64_t)r + 1u));
+        uint32_t want = (uint32_t)(((uint64_t)x << 30) / r);
+        bad += pk_frac_q30_soft(x, r) != want || pk_frac_q30(x, r) != want;
+    }
+    TH_EXPECT_EQ(bad, 0);
+}
+
 static void test_micrometres_round_to_the_nearest_step_like_a_double_reference(void)
 {
     unsigned bad = 0;
@@ -285,6 +311,7 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_isqrt64_is_the_exact_floor_everywhere),
         TH_CASE(test_micrometres_round_to_the_nearest_step_like_a_double_reference),
+        TH_CASE(test_frac_q30_is_the_exact_floor_of_the_64_bit_quotient),
         TH_CASE(test_replanned_speeds_respect_every_constraint_on_random_polylines),
         TH_CASE(test_a_final_plan_never_changes_when_blocks_are_appended),
         TH_CASE(test_a_replan_plans_what_a_replan_from_scratch_plans),
