@@ -8,6 +8,7 @@ void pk_mq_init(struct pk_mq *q)
 {
     q->tail = 0;
     q->count = 0;
+    q->pops = 0;
 }
 
 uint32_t pk_mq_room(const struct pk_mq *q) { return (uint32_t)PK_MQ_CAP - q->count; }
@@ -37,4 +38,5 @@ void pk_mq_pop(struct pk_mq *q)
         return;
     q->tail = (uint16_t)((q->tail + 1u) % PK_MQ_CAP);
     q->count--;
+    q->pops++;
 }

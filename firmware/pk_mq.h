@@ -62,6 +62,8 @@ struct pk_block {
     pk_v2_q4_t v2_junction;    /**< LINE: max entry speed^2 from the junction geometry
                                     (the replan also caps it by both nominals) */
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
+    pk_v2_q4_t v2_rev;         /**< LINE: planner-private: the exit the reverse pass
+                                    allows (kept for the next, incremental replan) */
 };
 
 /** The ring (MAIN only). */
@@ -69,6 +71,8 @@ struct pk_mq {
     struct pk_block b[PK_MQ_CAP];
     uint16_t tail;   /**< oldest block */
     uint16_t count;  /**< blocks queued */
+    uint16_t pops;   /**< blocks popped since pk_mq_init, modulo 2^16 (the planner
+                          tells what changed since its last replan) */
 };
 
 /** Empty the queue. */

@@ -100,7 +100,11 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim)
     p->nom_rapid_pct = 100u;
 }
 
-void pk_planner_break(struct pk_planner *p) { p->have_prev = false; }
+void pk_planner_break(struct pk_planner *p)
+{
+    p->have_prev = false;
+    p->plan_valid = false; /* (the machine's reset empties the queue with it) */
+}
 
 pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b)
 {
@@ -414,8 +418,10 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
 {
     uint32_t n = pk_mq_count(q);
     p->n_final = 0;
-    if (n == 0)
+    if (n == 0) {
+        p->plan_valid = false;
         return;
+    }
     /* Nominal speeds: a block gets its own when it is added (with the
      * overrides of that moment, pk_planner_add_line); all of them again only
      * when the overrides changed since (each is two 64-bit divisions, the
@@ -434,27 +440,66 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
     p->nom_feed_pct = p->ovr_feed_pct;
     p->nom_rapid_pct = p->ovr_rapid_pct;
     p->nom_dirty = false;
+    /* Incremental (Grbl's planned pointer). Since the last replan the step
+     * generator may have taken blocks off the tail (popped) and the machine
+     * appended some. Appending only raises the entries the reverse pass
+     * computes (the old newest block ended at rest, and v^2 -> min(ceiling,
+     * v^2 + 2 a s) is monotone), so below the last anchor -- a stop block, or
+     * a line whose entry its ceiling capped -- the reverse pass hands down
+     * what it did: it runs from the newest block down to the anchor only (not
+     * at all when nothing was appended: popping changes no reverse value).
+     * The forward pass starts at block 0 when the start state changed
+     * (a block was popped: the next one starts at the speed the step
+     * generator reached), and stops redoing the old plan at the first block
+     * whose exit comes out as before (every later exit depends only on it
+     * and on unchanged reverse values) until the blocks the reverse pass
+     * redid. The same plan as from scratch (tests/test_motion_planner.c). */
+    uint32_t lo_rev = 0, lo_fwd = 0, popped = 0, appended = n, anchor0 = 0;
+    const bool same_start = v2_now == p->plan_v2_now && rem_q8 == p->plan_rem_q8;
+    if (p->plan_valid && !ovr_changed && end_known == p->plan_end_known) {
+        popped = (uint16_t)(q->pops - p->plan_pops);
+        if (popped <= p->plan_count && n + popped >= p->plan_count) {
+            appended = n + popped - p->plan_count;
+            anchor0 = p->plan_anchor >= popped ? p->plan_anchor - popped : 0u;
+            lo_rev = appended == 0u ? n : anchor0;
+            lo_fwd = popped == 0u && same_start ? lo_rev : 0u;
+        } else {
+            popped = 0;
+        }
+    }
     /* Reverse pass: the newest block ends at rest. next_entry = entry ceiling
      * of block k+1 as far as stopping allows; limited = it depends on the
      * queue's end (it was not capped by anything that stays). */
     pk_v2_q4_t next_entry = 0;
     bool limited = !end_known;
-    for (uint32_t k = n; k-- > 0;) {
+    uint32_t anchor = lo_rev < n ? 0u : anchor0;
+    bool have_anchor = lo_rev >= n;
+    for (uint32_t k = n; k-- > lo_rev;) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type != PK_BLK_LINE) {
             b->v2_exit = 0;
             next_entry = 0;
             limited = false;
+            if (!have_anchor) {
+                anchor = k;
+                have_anchor = true;
+            }
             continue;
         }
-        b->v2_exit = next_entry;
+        b->v2_rev = next_entry;
         b->end_limited = limited;
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
-        pk_v2_q4_t entry = b->v2_exit + two_a_s(b->accel, len);
+        pk_v2_q4_t entry = b->v2_rev + two_a_s(b->accel, len);
         pk_v2_q4_t ceil = (k == 0) ? v2_now : entry_ceiling(q, k);
         if (ceil <= entry) {
             next_entry = ceil;
             limited = false;
+            /* (not the newest block while the end is unknown: below it
+             * everything is end-limited, see the next statement) */
+            if (!have_anchor && k > 0u && !(k == n - 1u && !end_known)) {
+                anchor = k;
+                have_anchor = true;
+            }
         } else {
             next_entry = entry;
         }
@@ -464,34 +509,55 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         if (k == n - 1u && !end_known)
             limited = true;
     }
+    if (!have_anchor)
+        anchor = lo_rev; /* (the old anchor, capped again: see above) */
     /* Forward pass: from the current speed, acceleration caps each exit. */
     pk_v2_q4_t entry = v2_now;
-    bool prefix = true;
-    uint32_t fin = 0;
-    for (uint32_t k = 0; k < n; k++) {
+    if (lo_fwd > 0) {
+        const struct pk_block *a = pk_mq_at(q, lo_fwd - 1u);
+        entry = a->type == PK_BLK_LINE ? a->v2_exit : 0u;
+    }
+    for (uint32_t k = lo_fwd; k < n; k++) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type != PK_BLK_LINE) {
             entry = 0;
-            if (prefix)
-                fin++;
             continue;
         }
         if (k > 0 && entry > entry_ceiling(q, k))
             entry = entry_ceiling(q, k);
         uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
         pk_v2_q4_t reach = entry + two_a_s(b->accel, len);
-        pk_v2_q4_t ex = min64(b->v2_exit, min64(reach, b->v2_nom));
+        pk_v2_q4_t ex = min64(b->v2_rev, min64(reach, b->v2_nom));
+        const bool same = ex == b->v2_exit;
         b->v2_exit = ex;
         entry = ex;
-        /* (an exit capped here by the acceleration from the past is not final
-         * if it is end-limited: the newest block's acceleration can still drop
-         * when a curve follows it, lowering the reverse limit below this cap) */
-        if (prefix && !b->end_limited)
-            fin++;
-        else
-            prefix = false;
+        if (same && k > 0u && k + 1u < lo_rev) {
+            /* as before from here up to the blocks the reverse pass redid */
+            k = lo_rev - 1u;
+            const struct pk_block *a = pk_mq_at(q, k);
+            entry = a->type == PK_BLK_LINE ? a->v2_exit : 0u;
+        }
+    }
+    /* The final plans: the blocks from the tail up to the first end-limited
+     * line (an exit capped here by the acceleration from the past is not
+     * final if it is end-limited: the newest block's acceleration can still
+     * drop when a curve follows it, lowering the reverse limit below this
+     * cap). */
+    uint32_t fin = 0;
+    while (fin < n) {
+        const struct pk_block *b = pk_mq_at(q, fin);
+        if (b->type == PK_BLK_LINE && b->end_limited)
+            break;
+        fin++;
     }
     p->n_final = (uint8_t)(fin > 255u ? 255u : fin);
+    p->plan_valid = true;
+    p->plan_pops = q->pops;
+    p->plan_count = (uint16_t)n;
+    p->plan_anchor = (uint16_t)anchor;
+    p->plan_v2_now = v2_now;
+    p->plan_rem_q8 = rem_q8;
+    p->plan_end_known = end_known;
 }
 
 uint32_t pk_planner_final(const struct pk_planner *p) { return p->n_final; }

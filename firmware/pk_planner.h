@@ -48,6 +48,16 @@ struct pk_planner {
     uint32_t prev_len_q8;         /**< its requested length */
     pk_um_s2_t prev_accel;
     uint8_t n_final;              /**< blocks from the tail with a final plan (last replan) */
+    /* The last replan, for the next one (incremental when only blocks were
+     * appended since: pk_planner_replan) */
+    bool plan_valid;              /**< the fields below describe the queue's current plan */
+    bool plan_end_known;
+    uint16_t plan_pops, plan_count; /**< the queue's pop count and block count then */
+    uint16_t plan_anchor;         /**< the highest index whose reverse-pass value for the
+                                       blocks before it did not depend on the blocks after it
+                                       (0: none) */
+    uint32_t plan_rem_q8;
+    pk_v2_q4_t plan_v2_now;
 };
 
 /** Initialise with limits (copied). */

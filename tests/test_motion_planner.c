@@ -207,11 +207,29 @@ static void test_a_final_plan_never_changes_when_blocks_are_appended(void)
     TH_EXPECT_EQ(all_when_known, 400); /* a known end makes every plan final */
 }
 
-/* The replan keeps the nominal speeds it computed (pk_planner_replan: again
- * only when the overrides changed): over random sequences of appended
- * blocks, override changes, executed blocks and replans, every replan plans
- * exactly what a replan from scratch plans (a copy of the queue with every
- * nominal cleared, which makes the planner compute each one again). */
+/* A short move turning a little from the last (a smoothed curve: the
+ * reverse pass's limits then reach back over many blocks), at 80 steps/mm. */
+static void add_curve(struct pk_planner *p, struct pk_mq *q, double *ang)
+{
+    *ang += ((double)(xr() % 2001u) - 1000.0) * 2e-4;   /* +-0.2 rad */
+    double len = 100.0 + (double)(xr() % 1900u);          /* 0.1 - 2 mm */
+    int32_t d[PK_AXES] = { 0 }, dq[PK_AXES] = { 0 };
+    pk_steps_t st[PK_AXES] = { 0 };
+    d[0] = (int32_t)lround(len * cos(*ang));
+    d[1] = (int32_t)lround(len * sin(*ang));
+    for (int i = 0; i < 2; i++) {
+        st[i] = (pk_steps_t)(d[i] * 80 / 1000);
+        dq[i] = (int32_t)((int64_t)st[i] * 1000 * 256 / 80);
+    }
+    (void)pk_planner_add_line(p, q, dq, st, d, 0u, (pk_um_min_t)(60u * (20000u + xr() % 80000u)), 0u);
+}
+
+/* The replan keeps what it computed (pk_planner_replan: the nominal speeds
+ * until the overrides change; the plan below the last anchor while blocks
+ * are only appended): over random sequences of appended blocks, override
+ * changes, executed blocks and replans, every replan plans exactly what a
+ * replan from scratch plans (a copy of the queue with every nominal cleared
+ * and the planner's memory of its last plan dropped). */
 static void test_a_replan_plans_what_a_replan_from_scratch_plans(void)
 {
     static struct pk_mq q, q2;
@@ -226,20 +244,28 @@ static void test_a_replan_plans_what_a_replan_from_scratch_plans(void)
     lim.junction_dev_um = 20;
     lim.accel_min = 500000;
     static const uint16_t feed[] = { 10, 50, 100, 100, 120, 200 }, rapid[] = { 25, 50, 100 };
-    unsigned replans = 0, diff = 0, ovr_changes = 0;
+    unsigned replans = 0, diff = 0, ovr_changes = 0, incremental = 0;
     for (int run = 0; run < 300; run++) {
         pk_mq_init(&q);
         pk_planner_init(&p, &lim);
+        pk_v2_q4_t last_v2 = 0;
+        uint32_t last_rem = 0;
+        bool last_end = false, popped = true;
+        double ang = 0.0;
         for (int op = 0; op < 60; op++) {
             unsigned r = (unsigned)(xr() % 8u);
             if (r < 4u && pk_mq_room(&q) > 0) {
                 int32_t d[PK_AXES] = { 0 };
-                add_random(&p, &q, d);
+                if (run % 2 == 0)
+                    add_curve(&p, &q, &ang);
+                else
+                    add_random(&p, &q, d);
             } else if (r == 4u) {
                 pk_planner_set_override(&p, feed[xr() % TH_COUNT(feed)], rapid[xr() % TH_COUNT(rapid)]);
                 ovr_changes++;
             } else if (r == 5u && pk_mq_count(&q) > 0) {
                 pk_mq_pop(&q);
+                popped = true;
             }
             if (pk_mq_count(&q) == 0 || xr() % 3u == 0u)
                 continue;
@@ -247,8 +273,21 @@ static void test_a_replan_plans_what_a_replan_from_scratch_plans(void)
             uint32_t rem = b0->type == PK_BLK_LINE ? b0->len_q8 - (uint32_t)(xr() % (b0->len_q8 + 1u)) : 0u;
             pk_v2_q4_t v2_now = b0->type == PK_BLK_LINE ? (pk_v2_q4_t)(xr() % (b0->v2_nom + 1u)) : 0u;
             bool end_known = xr() % 4u == 0u;
+            if (!popped && xr() % 4u != 0u) {
+                /* the machine's case: the same block under way, the same end */
+                v2_now = last_v2;
+                rem = last_rem;
+                end_known = last_end;
+            }
+            incremental += p.plan_valid && p.plan_anchor > 0 && !popped && v2_now == last_v2 && rem == last_rem
+                           && end_known == last_end;
+            last_v2 = v2_now;
+            last_rem = rem;
+            last_end = end_known;
+            popped = false;
             q2 = q;
             p2 = p;
+            p2.plan_valid = false;
             for (uint32_t k = 0; k < pk_mq_count(&q2); k++) {
                 struct pk_block *c = pk_mq_at(&q2, k);
                 if (c->type == PK_BLK_LINE)
@@ -267,6 +306,7 @@ static void test_a_replan_plans_what_a_replan_from_scratch_plans(void)
     TH_EXPECT_EQ(diff, 0);
     TH_EXPECT(replans > 5000);
     TH_EXPECT(ovr_changes > 1000);
+    TH_EXPECT(incremental > 1000); /* replans that started from an anchor above 0 */
 }
 
 /* A polygon with chords c on a circle of radius R turns by c/R per vertex:
