@@ -72,6 +72,16 @@
  * known), so a program read from a file and the same program streamed line by
  * line give the same pin trace as long as the sender keeps the queue fed.
  *
+ * Incremental replans. The same monotonicity makes replanning cheap: below
+ * the last anchor (a stop block, or a line whose entry its ceiling capped)
+ * the reverse pass hands down what it did however many blocks are appended,
+ * and popping blocks off the tail changes no reverse value. A replan runs the
+ * reverse pass from the newest block down to that anchor only, and the
+ * forward pass from block 0 (when the step generator took blocks: the next
+ * one starts at the speed it reached) until an exit comes out as before,
+ * then from the anchor on. Exactly the plan a replan from scratch makes; on
+ * an 8-bit core about half the cost (pk_planner_replan).
+ *
  * Fixed-point budget: len_q8 < 2^31 (|d| <= 2*PK_UM_MAX per axis, 3 axes:
  * sqrt(3) * 2^22 µm * 2^8 < 2^31), accel < 2^27, so 2*a*len in Q4 is
  * 2 * a * len_q8 / 16 < 2^55. Speeds^2 Q4 < 2^44 (1 m/s).
