@@ -65,28 +65,51 @@ static int cur_peek(struct pk_gc_cursor *c)
  * Read a number: [+-] digits [. digits] | [+-] . digits. At most 9 integer
  * digits; fraction digits are kept while the mantissa has fewer than 9
  * digits and the decimals are fewer than 9, later ones dropped.
+ *
+ * (the loop is the parser's hot spot on the AVR: 3-4 numbers a line.) The
+ * digits are gathered four at a time in 16 bits (acc <= 9999) and folded
+ * into the 32-bit mantissa once per four (m * 10^k + acc: one libgcc
+ * multiply where a digit at a time took one per digit); nd counts the
+ * significant digits taken, so "m <= 99999999" (room for one more digit) is
+ * nd <= 8, an 8-bit test. The cursor stays in registers; digits and the
+ * point are read straight from the line while they come without blanks
+ * (the engine hands over lines without blanks or comments), cur_peek only
+ * for anything else.
  */
 static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
 {
-    int ch = cur_peek(c);
-    int neg = 0;
-    if (ch == '+' || ch == '-') {
-        neg = ch == '-';
-        c->i++;
+    const uint8_t *s = c->s;
+    const size_t n = c->n;
+    size_t i = c->i;
+    int ch, neg = 0;
+    if (i < n && (uint8_t)(s[i] - '0') <= 9u) {
+        ch = s[i];
+    } else {
         ch = cur_peek(c);
+        if (ch == '+' || ch == '-') {
+            neg = ch == '-';
+            c->i++;
+            ch = cur_peek(c);
+        }
+        i = c->i;
     }
-    /* (the loop is the parser's hot spot on the AVR: 3-4 numbers a line;
-     * m * 10 as shifts, no libgcc multiply; digits read straight from the
-     * line while they come without blanks) */
-    uint32_t m = 0;
-    uint8_t dec = 0, any = 0, dot = 0;
+    uint32_t m = 0;   /* digits folded so far (< 10^9) */
+    uint16_t acc = 0; /* the k digits after them (<= 9999) */
+    uint8_t k = 0, nd = 0, dec = 0, any = 0, dot = 0;
     for (;;) {
         const uint8_t d = (uint8_t)(ch - '0');
         if (d <= 9u) {
             any = 1;
-            if (m <= 99999999u) {
+            if (nd <= 8u) { /* the value so far <= 99999999 */
                 if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
-                    m = (m << 3) + (m << 1) + d;
+                    if (nd != 0u || d != 0u)
+                        nd++;
+                    acc = (uint16_t)(acc * 10u + d);
+                    if (++k == 4u) {
+                        m = m * 10000u + acc; /* the digits so far: < 10^9 */
+                        acc = 0;
+                        k = 0;
+                    }
                     dec = (uint8_t)(dec + dot);
                 }
             } else if (!dot) {
@@ -97,16 +120,21 @@ static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
         } else {
             break;
         }
-        c->i++;
-        /* fast path: the next byte is a digit (the engine hands over lines
-         * without blanks or comments); otherwise the full peek */
-        if (c->i < c->n && (uint8_t)(c->s[c->i] - '0') <= 9u)
-            ch = c->s[c->i];
-        else
+        i++;
+        uint8_t b;
+        if (i < n && ((uint8_t)((b = s[i]) - '0') <= 9u || b == '.')) {
+            ch = b;
+        } else {
+            c->i = i;
             ch = cur_peek(c);
+            i = c->i;
+        }
     }
+    c->i = i; /* at ch, the byte after the number (not consumed) */
     if (!any)
         return PK_GC_E_BAD_NUMBER;
+    if (k != 0u) /* all the digits taken: at most 9 significant, < 10^9 */
+        m = m * pk_rom_u32(&pow10_tab[k]) + acc;
     *m_out = neg ? -(int32_t)m : (int32_t)m;
     *dec_out = dec;
     return PK_GC_OK;
@@ -413,14 +441,19 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             /* Grbl: T above 255 first, then repeats, then negatives */
             if (w == PK_GC_W_T && m > 0 && ((uint32_t)m / pk_rom_u32(&pow10_tab[dec]) > 255u))
                 return PK_GC_E_TOOL_NUMBER;
-            if (has(out, w))
+            /* (the bit shifted once: a shift by a variable count is a loop
+             * on the AVR) */
+            const uint16_t bit = PK_GC_WBIT(w);
+            if (out->words & bit)
                 return PK_GC_E_REPEATED_WORD;
-            int cubic = (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion == PK_GC_MOT_CUBIC;
-            if (m < 0 && w == PK_GC_W_P && !cubic)
-                *neg_p = 1;
-            else if (m < 0 && (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S))
-                return PK_GC_E_NEGATIVE;
-            out->words |= PK_GC_WBIT(w);
+            if (m < 0) {
+                int cubic = (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion == PK_GC_MOT_CUBIC;
+                if (w == PK_GC_W_P && !cubic)
+                    *neg_p = 1;
+                else if (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S)
+                    return PK_GC_E_NEGATIVE;
+            }
+            out->words |= bit;
             out->m[w] = m;
             out->dec[w] = dec;
         }
@@ -492,13 +525,22 @@ static int in_range32(int32_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
 
 #define TLO_AXIS 2
+#define AXIS_BIT(a) ((uint16_t)(PK_GC_WBIT(PK_GC_W_X) << (a)))
 
 /* A word's value in µm (length units), in thousandths, and a stored
  * coordinate set: one call each where the block is read (smaller code on a
  * small part than the field loads at every call). */
 static int word_um(const struct pk_gc_block *b, int w, uint8_t units, int32_t *out)
 {
-    return pk_gcode_len_um(b->m[w], b->dec[w], units, out);
+    int32_t m = b->m[w];
+    uint8_t dec = b->dec[w];
+    if (units == PK_GC_INCH)
+        return pk_gcode_len_um(m, dec, units, out);
+    if (dec == 3u) { /* "X12.345": already µm (the common case, no call) */
+        *out = m;
+        return PK_GC_OK;
+    }
+    return pk_gcode_scaled(m, dec, 3, out); /* mm: pk_gcode_len_um's 32-bit path */
 }
 
 static int word_milli(const struct pk_gc_block *b, int w, int32_t *out)
@@ -714,10 +756,12 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     }
 #endif
     /* [12. Set length units] axis words to µm */
+    /* (the axis loops test a moving bit: a shift by a variable count is a
+     * loop on the AVR) */
     int32_t xyz[PK_GC_AXES];
     for (int a = 0; a < PK_GC_AXES; a++) {
         xyz[a] = 0;
-        if (has(b, PK_GC_W_X + a) &&
+        if ((axis_words & AXIS_BIT(a)) &&
             word_um(b, PK_GC_W_X + a, units, &xyz[a]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     }
@@ -730,16 +774,17 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         return PK_GC_E_TRAVEL; /* an offset stays within the travel range */
 #endif
     /* [15. Coordinate system selection] */
-    int32_t wcs_um[PK_GC_AXES];
-    memcpy(wcs_um, st->wcs_um, sizeof wcs_um);
+    /* (the active offsets are read in place; a copy only of a new one) */
+    int32_t wcs_read[PK_GC_AXES];
+    const int32_t *wcs_um = st->wcs_um;
     if ((b->groups & PK_GC_GBIT(PK_GC_G_WCS)) && wcs != st->wcs) {
-        if (coord_get(env, wcs, wcs_um) != 0)
+        if (coord_get(env, wcs, wcs_read) != 0)
             return PK_GC_E_READ_FAIL;
+        wcs_um = wcs_read;
     }
     /* [19. Remaining non-modal actions] */
     int32_t target[PK_GC_AXES], coord[PK_GC_AXES], g92[PK_GC_AXES];
     memcpy(target, st->pos_um, sizeof target);
-    memcpy(g92, st->g92_um, sizeof g92);
     uint8_t coord_idx = 0;
     if (nonmodal == PK_GC_NM_SET_COORD) {
         if (!axis_words)
@@ -757,7 +802,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         if (coord_get(env, coord_idx, coord) != 0)
             return PK_GC_E_READ_FAIL;
         for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!has(b, PK_GC_W_X + a))
+            if (!(axis_words & AXIS_BIT(a)))
                 continue;
             if (!word_ok(xyz[a]))
                 return PK_GC_E_TRAVEL;
@@ -773,8 +818,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     } else if (nonmodal == PK_GC_NM_SET_OFFSET) {
         if (!axis_words)
             return PK_GC_E_NO_AXIS_WORDS;
+        memcpy(g92, st->g92_um, sizeof g92); /* (g92 is read only by G92) */
         for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!has(b, PK_GC_W_X + a))
+            if (!(axis_words & AXIS_BIT(a)))
                 continue;
             if (!word_ok(xyz[a]) || !in_range32(wcs_um[a]))
                 return PK_GC_E_TRAVEL;
@@ -790,7 +836,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     } else {
         if (axis_cmd != PK_GC_AXCMD_TLO && axis_words) {
             for (int a = 0; a < PK_GC_AXES; a++) {
-                if (!has(b, PK_GC_W_X + a))
+                if (!(axis_words & AXIS_BIT(a)))
                     continue;
                 int32_t v = xyz[a];
                 if (!word_ok(v) || !in_range32(wcs_um[a]))
@@ -817,7 +863,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 return PK_GC_E_READ_FAIL;
             if (axis_words) {
                 for (int a = 0; a < PK_GC_AXES; a++)
-                    if (!has(b, PK_GC_W_X + a))
+                    if (!(axis_words & AXIS_BIT(a)))
                         coord[a] = st->pos_um[a];
             } else {
                 axis_cmd = PK_GC_AXCMD_NONE;
@@ -1026,7 +1072,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             cmd->what |= PK_GC_DO_WCO;
         }
     }
-    if (wcs != st->wcs) {
+    if (wcs != st->wcs) { /* (then wcs_um is wcs_read: never a copy onto itself) */
         n->wcs = wcs;
         memcpy(n->wcs_um, wcs_um, sizeof n->wcs_um);
         cmd->what |= PK_GC_DO_WCO;
