@@ -525,7 +525,6 @@ static int in_range32(int32_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
 
 #define TLO_AXIS 2
-#define AXIS_BIT(a) ((uint16_t)(PK_GC_WBIT(PK_GC_W_X) << (a)))
 
 /* A word's value in µm (length units), in thousandths, and a stored
  * coordinate set: one call each where the block is read (smaller code on a
@@ -650,9 +649,11 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     if (n != st)
         *n = *st;
     /* the arc/curve union is set up only by the blocks that use it (clearing
-     * its 136 bytes on every line costs ~550 cycles on an AVR) */
-    memset(cmd, 0, offsetof(struct pk_gc_cmd, u));
-    cmd->line_number = 0;
+     * its 136 bytes on every line costs ~550 cycles on an AVR); start_um and
+     * target_um are cleared at the end only when no move wrote them
+     * (cmd_done): the 78 bytes before the union at 6 cycles a byte were
+     * the interpreter's largest cost a line */
+    memset(cmd, 0, offsetof(struct pk_gc_cmd, start_um));
     uint16_t words = b->words;
     uint8_t axis_cmd = b->axis_cmd;
     uint8_t motion = (b->groups & PK_GC_GBIT(PK_GC_G_MOTION)) ? b->motion : st->motion;
@@ -759,9 +760,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     /* (the axis loops test a moving bit: a shift by a variable count is a
      * loop on the AVR) */
     int32_t xyz[PK_GC_AXES];
-    for (int a = 0; a < PK_GC_AXES; a++) {
+    for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
         xyz[a] = 0;
-        if ((axis_words & AXIS_BIT(a)) &&
+        if ((axis_words & bit) &&
             word_um(b, PK_GC_W_X + a, units, &xyz[a]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     }
@@ -783,8 +784,12 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         wcs_um = wcs_read;
     }
     /* [19. Remaining non-modal actions] */
-    int32_t target[PK_GC_AXES], coord[PK_GC_AXES], g92[PK_GC_AXES];
-    memcpy(target, st->pos_um, sizeof target);
+    /* The target is built in place in cmd->target_um (no copy from a local
+     * and back), only where it is read: G0-G3, G5, G38 (axis_cmd MOTION),
+     * G28/G30 (and the jog) take this last branch; G10 and G92 do not read
+     * it, and a block without a move leaves it zero (cmd_done). */
+    int32_t *const target = cmd->target_um;
+    int32_t coord[PK_GC_AXES], g92[PK_GC_AXES];
     uint8_t coord_idx = 0;
     if (nonmodal == PK_GC_NM_SET_COORD) {
         if (!axis_words)
@@ -801,8 +806,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         coord_idx = p > 0u ? (uint8_t)(p - 1u) : wcs;
         if (coord_get(env, coord_idx, coord) != 0)
             return PK_GC_E_READ_FAIL;
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!(axis_words & AXIS_BIT(a)))
+        for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+            if (!(axis_words & bit))
                 continue;
             if (!word_ok(xyz[a]))
                 return PK_GC_E_TRAVEL;
@@ -819,8 +824,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         if (!axis_words)
             return PK_GC_E_NO_AXIS_WORDS;
         memcpy(g92, st->g92_um, sizeof g92); /* (g92 is read only by G92) */
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!(axis_words & AXIS_BIT(a)))
+        for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+            if (!(axis_words & bit))
                 continue;
             if (!word_ok(xyz[a]) || !in_range32(wcs_um[a]))
                 return PK_GC_E_TRAVEL;
@@ -834,9 +839,11 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             g92[a] = v;
         }
     } else {
+        /* the axes of the words move (not with G43.1), the others stay */
+        memcpy(target, st->pos_um, sizeof cmd->target_um);
         if (axis_cmd != PK_GC_AXCMD_TLO && axis_words) {
-            for (int a = 0; a < PK_GC_AXES; a++) {
-                if (!(axis_words & AXIS_BIT(a)))
+            for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+                if (!(axis_words & bit))
                     continue;
                 int32_t v = xyz[a];
                 if (!word_ok(v) || !in_range32(wcs_um[a]))
@@ -862,8 +869,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             if (coord_get(env, idx, coord) != 0)
                 return PK_GC_E_READ_FAIL;
             if (axis_words) {
-                for (int a = 0; a < PK_GC_AXES; a++)
-                    if (!(axis_words & AXIS_BIT(a)))
+                for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1)
+                    if (!(axis_words & bit))
                         coord[a] = st->pos_um[a];
             } else {
                 axis_cmd = PK_GC_AXCMD_NONE;
@@ -912,7 +919,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 g.cw = motion == PK_GC_MOT_CW_ARC;
                 if (has(b, PK_GC_W_R)) {
                     used |= PK_GC_WBIT(PK_GC_W_R);
-                    if (memcmp(st->pos_um, target, sizeof target) == 0)
+                    if (memcmp(st->pos_um, target, sizeof cmd->target_um) == 0)
                         return PK_GC_E_BAD_TARGET;
                     int32_t r;
                     if (word_um(b, PK_GC_W_R, units, &r) != PK_GC_OK ||
@@ -966,7 +973,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             default: /* probes */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
-                if (memcmp(st->pos_um, target, sizeof target) == 0)
+                if (memcmp(st->pos_um, target, sizeof cmd->target_um) == 0)
                     return PK_GC_E_BAD_TARGET;
                 break;
             }
@@ -1016,7 +1023,6 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             cmd->motion = PK_GC_MOT_LINEAR;
             cmd->feed_umpm = f;
             memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
-            memcpy(cmd->target_um, target, sizeof cmd->target_um);
             memcpy(n->pos_um, target, sizeof n->pos_um);
         }
         return PK_GC_OK;
@@ -1100,7 +1106,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     case PK_GC_NM_HOME1:
         if (axis_cmd) {
             cmd->what |= PK_GC_DO_VIA;
-            memcpy(cmd->via_um, target, sizeof target);
+            memcpy(cmd->via_um, target, sizeof cmd->via_um);
         }
         cmd->what |= PK_GC_DO_MOVE;
         cmd->motion = PK_GC_MOT_RAPID;
@@ -1134,8 +1140,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         cmd->laser_off = !(motion == PK_GC_MOT_LINEAR || motion == PK_GC_MOT_CW_ARC ||
                            motion == PK_GC_MOT_CCW_ARC || motion == PK_GC_MOT_CUBIC ||
                            motion == PK_GC_MOT_QUAD);
-        memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
-        memcpy(cmd->target_um, target, sizeof cmd->target_um);
+        memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um); /* (target_um: built in place) */
         /* a probe's end is where the probe triggers: synced by the engine */
         if (motion < PK_GC_MOT_PROBE_TOWARD)
             memcpy(n->pos_um, target, sizeof n->pos_um);
@@ -1166,14 +1171,29 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     return PK_GC_OK;
 }
 
+/* An accepted block without a move: its start and target are zero, as the
+ * rest of *cmd before the union (interp cleared up to start_um). */
+static int cmd_done(int rc, struct pk_gc_cmd *cmd)
+{
+    _Static_assert(offsetof(struct pk_gc_cmd, target_um) ==
+                   offsetof(struct pk_gc_cmd, start_um) + sizeof cmd->start_um &&
+                   offsetof(struct pk_gc_cmd, u) ==
+                   offsetof(struct pk_gc_cmd, target_um) + sizeof cmd->target_um,
+                   "start_um and target_um end the part before the union");
+    if (rc == PK_GC_OK && !(cmd->what & PK_GC_DO_MOVE))
+        memset((uint8_t *)cmd + offsetof(struct pk_gc_cmd, start_um), 0,
+               offsetof(struct pk_gc_cmd, u) - offsetof(struct pk_gc_cmd, start_um));
+    return rc;
+}
+
 int pk_gcode_interp(struct pk_gc_state *st, const struct pk_gc_block *b,
                     const struct pk_gc_env *env, struct pk_gc_cmd *cmd)
 {
-    return interp(st, b, env, 0, st, cmd);
+    return cmd_done(interp(st, b, env, 0, st, cmd), cmd);
 }
 
 int pk_gcode_jog(const struct pk_gc_state *st, const struct pk_gc_block *b, struct pk_gc_cmd *cmd)
 {
     struct pk_gc_state n;
-    return interp(st, b, NULL, 1, &n, cmd);
+    return cmd_done(interp(st, b, NULL, 1, &n, cmd), cmd);
 }
