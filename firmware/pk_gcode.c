@@ -189,6 +189,14 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
  * table in program memory costs ~5 cycles a word more on the AVR). */
 _Static_assert(PK_GC_W_F == 0 && PK_GC_W_J == PK_GC_W_I + 1 && PK_GC_W_L == PK_GC_W_I + 3 &&
                PK_GC_W_T == PK_GC_W_P + 4 && PK_GC_W_Z == PK_GC_W_X + 2, "word runs I-L, P-T, X-Z");
+/* PK_GC_WBIT(w) from program memory: a shift by a variable count is a
+ * loop on the AVR (~40 cycles for X, Y) */
+static const uint16_t word_bit[PK_GC_W_COUNT] PK_ROM = {
+    PK_GC_WBIT(0), PK_GC_WBIT(1), PK_GC_WBIT(2), PK_GC_WBIT(3), PK_GC_WBIT(4),
+    PK_GC_WBIT(5), PK_GC_WBIT(6), PK_GC_WBIT(7), PK_GC_WBIT(8), PK_GC_WBIT(9),
+    PK_GC_WBIT(10), PK_GC_WBIT(11), PK_GC_WBIT(12), PK_GC_WBIT(13)
+};
+_Static_assert(PK_GC_W_COUNT == 14, "word_bit has a bit for each word");
 static int word_index(int letter)
 {
     if (letter >= 'P' && letter <= 'T')
@@ -441,9 +449,7 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             /* Grbl: T above 255 first, then repeats, then negatives */
             if (w == PK_GC_W_T && m > 0 && ((uint32_t)m / pk_rom_u32(&pow10_tab[dec]) > 255u))
                 return PK_GC_E_TOOL_NUMBER;
-            /* (the bit shifted once: a shift by a variable count is a loop
-             * on the AVR) */
-            const uint16_t bit = PK_GC_WBIT(w);
+            const uint16_t bit = pk_rom_u16(&word_bit[w]);
             if (out->words & bit)
                 return PK_GC_E_REPEATED_WORD;
             if (m < 0) {
@@ -459,7 +465,12 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
         }
         if (rc != PK_GC_OK)
             return rc;
-        ch = cur_peek(c);
+        /* read_number left the cursor at a significant byte: a capital
+         * letter needs no peek (~40 cycles a word on the AVR) */
+        if (c->i < c->n && (uint8_t)(c->s[c->i] - 'A') <= (uint8_t)('Z' - 'A'))
+            ch = c->s[c->i];
+        else
+            ch = cur_peek(c);
     }
     return PK_GC_OK;
 }
