@@ -66,15 +66,12 @@ static int cur_peek(struct pk_gc_cursor *c)
  * digits; fraction digits are kept while the mantissa has fewer than 9
  * digits and the decimals are fewer than 9, later ones dropped.
  *
- * (the loop is the parser's hot spot on the AVR: 3-4 numbers a line.) The
- * digits are gathered four at a time in 16 bits (acc <= 9999) and folded
- * into the 32-bit mantissa once per four (m * 10^k + acc: one libgcc
- * multiply where a digit at a time took one per digit); nd counts the
- * significant digits taken, so "m <= 99999999" (room for one more digit) is
- * nd <= 8, an 8-bit test. The cursor stays in registers; digits and the
- * point are read straight from the line while they come without blanks
- * (the engine hands over lines without blanks or comments), cur_peek only
- * for anything else.
+ * (the loop is the parser's hot spot on the AVR: 3-4 numbers a line.) While
+ * the mantissa is below 6553 a digit is a 16-bit multiply-add (the hardware
+ * multiplier), beyond it libgcc's 32 x 16-bit product. The cursor stays in
+ * registers; digits and the point are read straight from the line while
+ * they come without blanks (the engine hands over lines without blanks or
+ * comments), cur_peek only for anything else.
  */
 static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
 {
@@ -93,27 +90,21 @@ static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
         }
         i = c->i;
     }
-    uint32_t m = 0;   /* digits folded so far (< 10^9) */
-    uint16_t acc = 0; /* the k digits after them (<= 9999) */
-    uint8_t k = 0, nd = 0, dec = 0, any = 0, dot = 0;
+    uint32_t m = 0;
+    uint8_t dec = 0, any = 0, dot = 0;
     for (;;) {
         const uint8_t d = (uint8_t)(ch - '0');
         if (d <= 9u) {
             any = 1;
-            if (nd <= 8u) { /* the value so far <= 99999999 */
-                if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
-                    if (nd != 0u || d != 0u)
-                        nd++;
-                    acc = (uint16_t)(acc * 10u + d);
-                    if (++k == 4u) {
-                        m = m * 10000u + acc; /* the digits so far: < 10^9 */
-                        acc = 0;
-                        k = 0;
-                    }
+            if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
+                if (m <= 99999999u) {
+                    /* below 6553, m * 10 + d <= 65529: a 16-bit product
+                     * (hardware multiply), not libgcc's 32-bit one */
+                    m = m < 6553u ? (uint16_t)((uint16_t)m * 10u + d) : m * 10u + d;
                     dec = (uint8_t)(dec + dot);
+                } else if (!dot) {
+                    return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
                 }
-            } else if (!dot) {
-                return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
             }
         } else if (ch == '.' && !dot) {
             dot = 1;
@@ -133,8 +124,6 @@ static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
     c->i = i; /* at ch, the byte after the number (not consumed) */
     if (!any)
         return PK_GC_E_BAD_NUMBER;
-    if (k != 0u) /* all the digits taken: at most 9 significant, < 10^9 */
-        m = m * pk_rom_u32(&pow10_tab[k]) + acc;
     *m_out = neg ? -(int32_t)m : (int32_t)m;
     *dec_out = dec;
     return PK_GC_OK;
@@ -174,13 +163,14 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
 {
     if (units != PK_GC_INCH)
         return pk_gcode_scaled(m, dec, 3, out);
-    /* 1 inch = 25400 µm: m * 25400 / 10^dec (|m| < 2^30: below 2^45) */
-    int64_t v = (int64_t)m * 25400;
-    int64_t p = pk_rom_u32(&pow10_tab[dec]);
-    int64_t q = v >= 0 ? (v + p / 2) / p : -((-v + p / 2) / p);
-    if (q > 0x7fffffffLL || q < -0x7fffffffLL)
+    /* 1 inch = 25400 µm: |m| * 25400 / 10^dec, rounded half away, the sign
+     * put back after (|m| < 2^31: below 2^46; one unsigned division) */
+    uint32_t a = m < 0 ? (uint32_t)0 - (uint32_t)m : (uint32_t)m;
+    uint32_t p = pk_rom_u32(&pow10_tab[dec]);
+    uint64_t q = ((uint64_t)a * 25400u + p / 2u) / p;
+    if (q > 0x7fffffffu)
         return PK_GC_E_BAD_NUMBER;
-    *out = (int32_t)q;
+    *out = m < 0 ? -(int32_t)q : (int32_t)q;
     return PK_GC_OK;
 }
 
@@ -525,7 +515,9 @@ pk_um_t pk_gcode_wco(const struct pk_gc_state *st, unsigned a)
     return v;
 }
 
+#if PK_BUILD_G5
 static int in_range(int64_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
+#endif
 static int in_range32(int32_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 
 /* Targets and offsets in 32 bits: every term added to an axis word is a
@@ -887,7 +879,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 axis_cmd = PK_GC_AXCMD_NONE;
             }
             for (int a = 0; a < PK_GC_AXES; a++)
-                if (!in_range(coord[a]))
+                if (!in_range32(coord[a]))
                     return PK_GC_E_TRAVEL;
         } else if (nonmodal == PK_GC_NM_ABSOLUTE) {
             if (motion != PK_GC_MOT_RAPID && motion != PK_GC_MOT_LINEAR)
@@ -958,7 +950,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 int32_t lo[PK_AXES], hi[PK_AXES];
                 pk_arc_bounds(&cmd->u.arc, lo, hi);
                 for (int a = 0; a < PK_GC_AXES; a++)
-                    if (!in_range(lo[a]) || !in_range(hi[a]))
+                    if (!in_range32(lo[a]) || !in_range32(hi[a]))
                         return PK_GC_E_TRAVEL;
                 break;
 #endif
