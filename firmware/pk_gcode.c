@@ -78,7 +78,8 @@ static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
     const uint8_t *s = c->s;
     const size_t n = c->n;
     size_t i = c->i;
-    int ch, neg = 0;
+    int ch;
+    uint8_t neg = 0;
     if (i < n && (uint8_t)(s[i] - '0') <= 9u) {
         ch = s[i];
     } else {
@@ -215,12 +216,13 @@ static int code_parts(int32_t m, uint8_t dec, uint32_t *whole, uint32_t *mant)
     *whole = (uint32_t)m / p;
     uint32_t frac = (uint32_t)m % p;
     /* round(frac * 100 / p): frac < p <= 10^9, so frac * 100 fits in 64 bits
-     * only; split to stay in 32: (frac / (p/100)) for p >= 100 */
-    if (p >= 100u) {
-        uint32_t q = p / 100u;
+     * only; split to stay in 32: (frac / (p/100)) for p >= 100 (p / 100 is
+     * 10^(dec-2), from the table; dec 1: frac * 10) */
+    if (dec >= 2u) {
+        uint32_t q = pk_rom_u32(&pow10_tab[dec - 2u]);
         *mant = frac / q + ((frac % q) * 2u >= q ? 1u : 0u);
     } else {
-        *mant = frac * (100u / p);
+        *mant = frac * 10u;
     }
     return *whole > 255u ? -1 : 0;
 }
@@ -427,8 +429,8 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             return rc;
         if (letter == 'G') {
             rc = g_word(out, m, dec);
-            if (rc == PK_GC_OK && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
-                out->motion == PK_GC_MOT_CUBIC)
+            if (PK_BUILD_G5 && rc == PK_GC_OK && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
+                out->motion == PK_GC_MOT_CUBIC) /* (g_word sets it only where G5 is built) */
                 *neg_p = 0;
         } else if (letter == 'M') {
             rc = m_word(out, m, dec);
@@ -443,7 +445,8 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             if (out->words & bit)
                 return PK_GC_E_REPEATED_WORD;
             if (m < 0) {
-                int cubic = (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion == PK_GC_MOT_CUBIC;
+                int cubic = PK_BUILD_G5 && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
+                            out->motion == PK_GC_MOT_CUBIC;
                 if (w == PK_GC_W_P && !cubic)
                     *neg_p = 1;
                 else if (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S)
@@ -1007,7 +1010,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
 #else
         uint32_t len = move_len(st->pos_um, target);
 #endif
-        if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
+        if (PK_BUILD_G5 && (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD))
             return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */
         uint64_t v = ((uint64_t)len * (uint64_t)f + 999u) / 1000u;
         move_feed = v > (uint64_t)PK_GC_FEED_MAX ? PK_GC_FEED_MAX : (pk_gc_umpm_t)v;
@@ -1147,7 +1150,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         /* a probe's end is where the probe triggers: synced by the engine */
         if (motion < PK_GC_MOT_PROBE_TOWARD)
             memcpy(n->pos_um, target, sizeof n->pos_um);
-        n->cubic_prev = motion == PK_GC_MOT_CUBIC;
+        n->cubic_prev = PK_BUILD_G5 && motion == PK_GC_MOT_CUBIC;
         n->prev_pq_um[0] = pq[0];
         n->prev_pq_um[1] = pq[1];
     }
