@@ -98,10 +98,13 @@ static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
         if (d <= 9u) {
             any = 1;
             if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
-                if (m <= 99999999u) {
-                    /* below 6553, m * 10 + d <= 65529: a 16-bit product
-                     * (hardware multiply), not libgcc's 32-bit one */
-                    m = m < 6553u ? (uint16_t)((uint16_t)m * 10u + d) : m * 10u + d;
+                if (m < 6553u) {
+                    /* m * 10 + d <= 65529: a 16-bit product (hardware
+                     * multiply), not libgcc's 32-bit one */
+                    m = (uint16_t)((uint16_t)m * 10u + d);
+                    dec = (uint8_t)(dec + dot);
+                } else if (m <= 99999999u) {
+                    m = m * 10u + d;
                     dec = (uint8_t)(dec + dot);
                 } else if (!dot) {
                     return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
