@@ -65,46 +65,67 @@ static int cur_peek(struct pk_gc_cursor *c)
  * Read a number: [+-] digits [. digits] | [+-] . digits. At most 9 integer
  * digits; fraction digits are kept while the mantissa has fewer than 9
  * digits and the decimals are fewer than 9, later ones dropped.
+ *
+ * (the loop is the parser's hot spot on the AVR: 3-4 numbers a line.) While
+ * the mantissa is below 6553 a digit is a 16-bit multiply-add (the hardware
+ * multiplier), beyond it libgcc's 32 x 16-bit product. The cursor stays in
+ * registers; digits and the point are read straight from the line while
+ * they come without blanks (the engine hands over lines without blanks or
+ * comments), cur_peek only for anything else.
  */
 static int read_number(struct pk_gc_cursor *c, int32_t *m_out, uint8_t *dec_out)
 {
-    int ch = cur_peek(c);
-    int neg = 0;
-    if (ch == '+' || ch == '-') {
-        neg = ch == '-';
-        c->i++;
+    const uint8_t *s = c->s;
+    const size_t n = c->n;
+    size_t i = c->i;
+    int ch;
+    uint8_t neg = 0;
+    if (i < n && (uint8_t)(s[i] - '0') <= 9u) {
+        ch = s[i];
+    } else {
         ch = cur_peek(c);
+        if (ch == '+' || ch == '-') {
+            neg = ch == '-';
+            c->i++;
+            ch = cur_peek(c);
+        }
+        i = c->i;
     }
-    /* (the loop is the parser's hot spot on the AVR: 3-4 numbers a line;
-     * m * 10 as shifts, no libgcc multiply; digits read straight from the
-     * line while they come without blanks) */
     uint32_t m = 0;
     uint8_t dec = 0, any = 0, dot = 0;
     for (;;) {
         const uint8_t d = (uint8_t)(ch - '0');
         if (d <= 9u) {
             any = 1;
-            if (m <= 99999999u) {
-                if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
-                    m = (m << 3) + (m << 1) + d;
+            if (!dot || dec < 9u) { /* (fraction digits past the 9th are dropped) */
+                if (m < 6553u) {
+                    /* m * 10 + d <= 65529: a 16-bit product (hardware
+                     * multiply), not libgcc's 32-bit one */
+                    m = (uint16_t)((uint16_t)m * 10u + d);
                     dec = (uint8_t)(dec + dot);
+                } else if (m <= 99999999u) {
+                    m = m * 10u + d;
+                    dec = (uint8_t)(dec + dot);
+                } else if (!dot) {
+                    return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
                 }
-            } else if (!dot) {
-                return PK_GC_E_BAD_NUMBER; /* a tenth integer digit */
             }
         } else if (ch == '.' && !dot) {
             dot = 1;
         } else {
             break;
         }
-        c->i++;
-        /* fast path: the next byte is a digit (the engine hands over lines
-         * without blanks or comments); otherwise the full peek */
-        if (c->i < c->n && (uint8_t)(c->s[c->i] - '0') <= 9u)
-            ch = c->s[c->i];
-        else
+        i++;
+        uint8_t b;
+        if (i < n && ((uint8_t)((b = s[i]) - '0') <= 9u || b == '.')) {
+            ch = b;
+        } else {
+            c->i = i;
             ch = cur_peek(c);
+            i = c->i;
+        }
     }
+    c->i = i; /* at ch, the byte after the number (not consumed) */
     if (!any)
         return PK_GC_E_BAD_NUMBER;
     *m_out = neg ? -(int32_t)m : (int32_t)m;
@@ -146,13 +167,14 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
 {
     if (units != PK_GC_INCH)
         return pk_gcode_scaled(m, dec, 3, out);
-    /* 1 inch = 25400 µm: m * 25400 / 10^dec (|m| < 2^30: below 2^45) */
-    int64_t v = (int64_t)m * 25400;
-    int64_t p = pk_rom_u32(&pow10_tab[dec]);
-    int64_t q = v >= 0 ? (v + p / 2) / p : -((-v + p / 2) / p);
-    if (q > 0x7fffffffLL || q < -0x7fffffffLL)
+    /* 1 inch = 25400 µm: |m| * 25400 / 10^dec, rounded half away, the sign
+     * put back after (|m| < 2^31: below 2^46; one unsigned division) */
+    uint32_t a = m < 0 ? (uint32_t)0 - (uint32_t)m : (uint32_t)m;
+    uint32_t p = pk_rom_u32(&pow10_tab[dec]);
+    uint64_t q = ((uint64_t)a * 25400u + p / 2u) / p;
+    if (q > 0x7fffffffu)
         return PK_GC_E_BAD_NUMBER;
-    *out = (int32_t)q;
+    *out = m < 0 ? -(int32_t)q : (int32_t)q;
     return PK_GC_OK;
 }
 
@@ -161,6 +183,14 @@ int pk_gcode_len_um(int32_t m, uint8_t dec, uint8_t units, int32_t *out)
  * table in program memory costs ~5 cycles a word more on the AVR). */
 _Static_assert(PK_GC_W_F == 0 && PK_GC_W_J == PK_GC_W_I + 1 && PK_GC_W_L == PK_GC_W_I + 3 &&
                PK_GC_W_T == PK_GC_W_P + 4 && PK_GC_W_Z == PK_GC_W_X + 2, "word runs I-L, P-T, X-Z");
+/* PK_GC_WBIT(w) from program memory: a shift by a variable count is a
+ * loop on the AVR (~40 cycles for X, Y) */
+static const uint16_t word_bit[PK_GC_W_COUNT] PK_ROM = {
+    PK_GC_WBIT(0), PK_GC_WBIT(1), PK_GC_WBIT(2), PK_GC_WBIT(3), PK_GC_WBIT(4),
+    PK_GC_WBIT(5), PK_GC_WBIT(6), PK_GC_WBIT(7), PK_GC_WBIT(8), PK_GC_WBIT(9),
+    PK_GC_WBIT(10), PK_GC_WBIT(11), PK_GC_WBIT(12), PK_GC_WBIT(13)
+};
+_Static_assert(PK_GC_W_COUNT == 14, "word_bit has a bit for each word");
 static int word_index(int letter)
 {
     if (letter >= 'P' && letter <= 'T')
@@ -189,12 +219,13 @@ static int code_parts(int32_t m, uint8_t dec, uint32_t *whole, uint32_t *mant)
     *whole = (uint32_t)m / p;
     uint32_t frac = (uint32_t)m % p;
     /* round(frac * 100 / p): frac < p <= 10^9, so frac * 100 fits in 64 bits
-     * only; split to stay in 32: (frac / (p/100)) for p >= 100 */
-    if (p >= 100u) {
-        uint32_t q = p / 100u;
+     * only; split to stay in 32: (frac / (p/100)) for p >= 100 (p / 100 is
+     * 10^(dec-2), from the table; dec 1: frac * 10) */
+    if (dec >= 2u) {
+        uint32_t q = pk_rom_u32(&pow10_tab[dec - 2u]);
         *mant = frac / q + ((frac % q) * 2u >= q ? 1u : 0u);
     } else {
-        *mant = frac * (100u / p);
+        *mant = frac * 10u;
     }
     return *whole > 255u ? -1 : 0;
 }
@@ -401,8 +432,8 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             return rc;
         if (letter == 'G') {
             rc = g_word(out, m, dec);
-            if (rc == PK_GC_OK && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
-                out->motion == PK_GC_MOT_CUBIC)
+            if (PK_BUILD_G5 && rc == PK_GC_OK && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
+                out->motion == PK_GC_MOT_CUBIC) /* (g_word sets it only where G5 is built) */
                 *neg_p = 0;
         } else if (letter == 'M') {
             rc = m_word(out, m, dec);
@@ -413,20 +444,29 @@ static int parse_words(struct pk_gc_cursor *c, struct pk_gc_block *out, int *neg
             /* Grbl: T above 255 first, then repeats, then negatives */
             if (w == PK_GC_W_T && m > 0 && ((uint32_t)m / pk_rom_u32(&pow10_tab[dec]) > 255u))
                 return PK_GC_E_TOOL_NUMBER;
-            if (has(out, w))
+            const uint16_t bit = pk_rom_u16(&word_bit[w]);
+            if (out->words & bit)
                 return PK_GC_E_REPEATED_WORD;
-            int cubic = (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) && out->motion == PK_GC_MOT_CUBIC;
-            if (m < 0 && w == PK_GC_W_P && !cubic)
-                *neg_p = 1;
-            else if (m < 0 && (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S))
-                return PK_GC_E_NEGATIVE;
-            out->words |= PK_GC_WBIT(w);
+            if (m < 0) {
+                int cubic = PK_BUILD_G5 && (out->groups & PK_GC_GBIT(PK_GC_G_MOTION)) &&
+                            out->motion == PK_GC_MOT_CUBIC;
+                if (w == PK_GC_W_P && !cubic)
+                    *neg_p = 1;
+                else if (w == PK_GC_W_F || w == PK_GC_W_N || w == PK_GC_W_T || w == PK_GC_W_S)
+                    return PK_GC_E_NEGATIVE;
+            }
+            out->words |= bit;
             out->m[w] = m;
             out->dec[w] = dec;
         }
         if (rc != PK_GC_OK)
             return rc;
-        ch = cur_peek(c);
+        /* read_number left the cursor at a significant byte: a capital
+         * letter needs no peek (~40 cycles a word on the AVR) */
+        if (c->i < c->n && (uint8_t)(c->s[c->i] - 'A') <= (uint8_t)('Z' - 'A'))
+            ch = c->s[c->i];
+        else
+            ch = cur_peek(c);
     }
     return PK_GC_OK;
 }
@@ -481,7 +521,9 @@ pk_um_t pk_gcode_wco(const struct pk_gc_state *st, unsigned a)
     return v;
 }
 
+#if PK_BUILD_G5
 static int in_range(int64_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
+#endif
 static int in_range32(int32_t v) { return v >= -PK_UM_MAX && v <= PK_UM_MAX; }
 
 /* Targets and offsets in 32 bits: every term added to an axis word is a
@@ -498,7 +540,15 @@ static int word_ok(int32_t v) { return v <= WORD_LIM && v >= -WORD_LIM; }
  * small part than the field loads at every call). */
 static int word_um(const struct pk_gc_block *b, int w, uint8_t units, int32_t *out)
 {
-    return pk_gcode_len_um(b->m[w], b->dec[w], units, out);
+    int32_t m = b->m[w];
+    uint8_t dec = b->dec[w];
+    if (units == PK_GC_INCH)
+        return pk_gcode_len_um(m, dec, units, out);
+    if (dec == 3u) { /* "X12.345": already µm (the common case, no call) */
+        *out = m;
+        return PK_GC_OK;
+    }
+    return pk_gcode_scaled(m, dec, 3, out); /* mm: pk_gcode_len_um's 32-bit path */
 }
 
 static int word_milli(const struct pk_gc_block *b, int w, int32_t *out)
@@ -608,9 +658,11 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     if (n != st)
         *n = *st;
     /* the arc/curve union is set up only by the blocks that use it (clearing
-     * its 136 bytes on every line costs ~550 cycles on an AVR) */
-    memset(cmd, 0, offsetof(struct pk_gc_cmd, u));
-    cmd->line_number = 0;
+     * its 136 bytes on every line costs ~550 cycles on an AVR); start_um and
+     * target_um are cleared at the end only when no move wrote them
+     * (cmd_done): the 78 bytes before the union at 6 cycles a byte were
+     * the interpreter's largest cost a line */
+    memset(cmd, 0, offsetof(struct pk_gc_cmd, start_um));
     uint16_t words = b->words;
     uint8_t axis_cmd = b->axis_cmd;
     uint8_t motion = (b->groups & PK_GC_GBIT(PK_GC_G_MOTION)) ? b->motion : st->motion;
@@ -714,10 +766,12 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     }
 #endif
     /* [12. Set length units] axis words to µm */
+    /* (the axis loops test a moving bit: a shift by a variable count is a
+     * loop on the AVR) */
     int32_t xyz[PK_GC_AXES];
-    for (int a = 0; a < PK_GC_AXES; a++) {
+    for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
         xyz[a] = 0;
-        if (has(b, PK_GC_W_X + a) &&
+        if ((axis_words & bit) &&
             word_um(b, PK_GC_W_X + a, units, &xyz[a]) != PK_GC_OK)
             return PK_GC_E_BAD_NUMBER;
     }
@@ -730,16 +784,21 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         return PK_GC_E_TRAVEL; /* an offset stays within the travel range */
 #endif
     /* [15. Coordinate system selection] */
-    int32_t wcs_um[PK_GC_AXES];
-    memcpy(wcs_um, st->wcs_um, sizeof wcs_um);
+    /* (the active offsets are read in place; a copy only of a new one) */
+    int32_t wcs_read[PK_GC_AXES];
+    const int32_t *wcs_um = st->wcs_um;
     if ((b->groups & PK_GC_GBIT(PK_GC_G_WCS)) && wcs != st->wcs) {
-        if (coord_get(env, wcs, wcs_um) != 0)
+        if (coord_get(env, wcs, wcs_read) != 0)
             return PK_GC_E_READ_FAIL;
+        wcs_um = wcs_read;
     }
     /* [19. Remaining non-modal actions] */
-    int32_t target[PK_GC_AXES], coord[PK_GC_AXES], g92[PK_GC_AXES];
-    memcpy(target, st->pos_um, sizeof target);
-    memcpy(g92, st->g92_um, sizeof g92);
+    /* The target is built in place in cmd->target_um (no copy from a local
+     * and back), only where it is read: G0-G3, G5, G38 (axis_cmd MOTION),
+     * G28/G30 (and the jog) take this last branch; G10 and G92 do not read
+     * it, and a block without a move leaves it zero (cmd_done). */
+    int32_t *const target = cmd->target_um;
+    int32_t coord[PK_GC_AXES], g92[PK_GC_AXES];
     uint8_t coord_idx = 0;
     if (nonmodal == PK_GC_NM_SET_COORD) {
         if (!axis_words)
@@ -756,8 +815,8 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         coord_idx = p > 0u ? (uint8_t)(p - 1u) : wcs;
         if (coord_get(env, coord_idx, coord) != 0)
             return PK_GC_E_READ_FAIL;
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!has(b, PK_GC_W_X + a))
+        for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+            if (!(axis_words & bit))
                 continue;
             if (!word_ok(xyz[a]))
                 return PK_GC_E_TRAVEL;
@@ -773,8 +832,9 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     } else if (nonmodal == PK_GC_NM_SET_OFFSET) {
         if (!axis_words)
             return PK_GC_E_NO_AXIS_WORDS;
-        for (int a = 0; a < PK_GC_AXES; a++) {
-            if (!has(b, PK_GC_W_X + a))
+        memcpy(g92, st->g92_um, sizeof g92); /* (g92 is read only by G92) */
+        for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+            if (!(axis_words & bit))
                 continue;
             if (!word_ok(xyz[a]) || !in_range32(wcs_um[a]))
                 return PK_GC_E_TRAVEL;
@@ -788,9 +848,11 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             g92[a] = v;
         }
     } else {
+        /* the axes of the words move (not with G43.1), the others stay */
+        memcpy(target, st->pos_um, sizeof cmd->target_um);
         if (axis_cmd != PK_GC_AXCMD_TLO && axis_words) {
-            for (int a = 0; a < PK_GC_AXES; a++) {
-                if (!has(b, PK_GC_W_X + a))
+            for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1) {
+                if (!(axis_words & bit))
                     continue;
                 int32_t v = xyz[a];
                 if (!word_ok(v) || !in_range32(wcs_um[a]))
@@ -816,14 +878,14 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             if (coord_get(env, idx, coord) != 0)
                 return PK_GC_E_READ_FAIL;
             if (axis_words) {
-                for (int a = 0; a < PK_GC_AXES; a++)
-                    if (!has(b, PK_GC_W_X + a))
+                for (int a = 0, bit = PK_GC_WBIT(PK_GC_W_X); a < PK_GC_AXES; a++, bit <<= 1)
+                    if (!(axis_words & bit))
                         coord[a] = st->pos_um[a];
             } else {
                 axis_cmd = PK_GC_AXCMD_NONE;
             }
             for (int a = 0; a < PK_GC_AXES; a++)
-                if (!in_range(coord[a]))
+                if (!in_range32(coord[a]))
                     return PK_GC_E_TRAVEL;
         } else if (nonmodal == PK_GC_NM_ABSOLUTE) {
             if (motion != PK_GC_MOT_RAPID && motion != PK_GC_MOT_LINEAR)
@@ -866,7 +928,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 g.cw = motion == PK_GC_MOT_CW_ARC;
                 if (has(b, PK_GC_W_R)) {
                     used |= PK_GC_WBIT(PK_GC_W_R);
-                    if (memcmp(st->pos_um, target, sizeof target) == 0)
+                    if (memcmp(st->pos_um, target, sizeof cmd->target_um) == 0)
                         return PK_GC_E_BAD_TARGET;
                     int32_t r;
                     if (word_um(b, PK_GC_W_R, units, &r) != PK_GC_OK ||
@@ -894,7 +956,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
                 int32_t lo[PK_AXES], hi[PK_AXES];
                 pk_arc_bounds(&cmd->u.arc, lo, hi);
                 for (int a = 0; a < PK_GC_AXES; a++)
-                    if (!in_range(lo[a]) || !in_range(hi[a]))
+                    if (!in_range32(lo[a]) || !in_range32(hi[a]))
                         return PK_GC_E_TRAVEL;
                 break;
 #endif
@@ -920,7 +982,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             default: /* probes */
                 if (!axis_words)
                     return PK_GC_E_NO_AXIS_WORDS;
-                if (memcmp(st->pos_um, target, sizeof target) == 0)
+                if (memcmp(st->pos_um, target, sizeof cmd->target_um) == 0)
                     return PK_GC_E_BAD_TARGET;
                 break;
             }
@@ -951,7 +1013,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
 #else
         uint32_t len = move_len(st->pos_um, target);
 #endif
-        if (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD)
+        if (PK_BUILD_G5 && (motion == PK_GC_MOT_CUBIC || motion == PK_GC_MOT_QUAD))
             return PK_GC_E_UNSUPPORTED; /* no curve length: G93 with G5 is not run */
         uint64_t v = ((uint64_t)len * (uint64_t)f + 999u) / 1000u;
         move_feed = v > (uint64_t)PK_GC_FEED_MAX ? PK_GC_FEED_MAX : (pk_gc_umpm_t)v;
@@ -970,7 +1032,6 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             cmd->motion = PK_GC_MOT_LINEAR;
             cmd->feed_umpm = f;
             memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
-            memcpy(cmd->target_um, target, sizeof cmd->target_um);
             memcpy(n->pos_um, target, sizeof n->pos_um);
         }
         return PK_GC_OK;
@@ -1026,7 +1087,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
             cmd->what |= PK_GC_DO_WCO;
         }
     }
-    if (wcs != st->wcs) {
+    if (wcs != st->wcs) { /* (then wcs_um is wcs_read: never a copy onto itself) */
         n->wcs = wcs;
         memcpy(n->wcs_um, wcs_um, sizeof n->wcs_um);
         cmd->what |= PK_GC_DO_WCO;
@@ -1054,7 +1115,7 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     case PK_GC_NM_HOME1:
         if (axis_cmd) {
             cmd->what |= PK_GC_DO_VIA;
-            memcpy(cmd->via_um, target, sizeof target);
+            memcpy(cmd->via_um, target, sizeof cmd->via_um);
         }
         cmd->what |= PK_GC_DO_MOVE;
         cmd->motion = PK_GC_MOT_RAPID;
@@ -1088,12 +1149,11 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
         cmd->laser_off = !(motion == PK_GC_MOT_LINEAR || motion == PK_GC_MOT_CW_ARC ||
                            motion == PK_GC_MOT_CCW_ARC || motion == PK_GC_MOT_CUBIC ||
                            motion == PK_GC_MOT_QUAD);
-        memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um);
-        memcpy(cmd->target_um, target, sizeof cmd->target_um);
+        memcpy(cmd->start_um, st->pos_um, sizeof cmd->start_um); /* (target_um: built in place) */
         /* a probe's end is where the probe triggers: synced by the engine */
         if (motion < PK_GC_MOT_PROBE_TOWARD)
             memcpy(n->pos_um, target, sizeof n->pos_um);
-        n->cubic_prev = motion == PK_GC_MOT_CUBIC;
+        n->cubic_prev = PK_BUILD_G5 && motion == PK_GC_MOT_CUBIC;
         n->prev_pq_um[0] = pq[0];
         n->prev_pq_um[1] = pq[1];
     }
@@ -1120,14 +1180,29 @@ static int interp(const struct pk_gc_state *st, const struct pk_gc_block *b,
     return PK_GC_OK;
 }
 
+/* An accepted block without a move: its start and target are zero, as the
+ * rest of *cmd before the union (interp cleared up to start_um). */
+static int cmd_done(int rc, struct pk_gc_cmd *cmd)
+{
+    _Static_assert(offsetof(struct pk_gc_cmd, target_um) ==
+                   offsetof(struct pk_gc_cmd, start_um) + sizeof cmd->start_um &&
+                   offsetof(struct pk_gc_cmd, u) ==
+                   offsetof(struct pk_gc_cmd, target_um) + sizeof cmd->target_um,
+                   "start_um and target_um end the part before the union");
+    if (rc == PK_GC_OK && !(cmd->what & PK_GC_DO_MOVE))
+        memset((uint8_t *)cmd + offsetof(struct pk_gc_cmd, start_um), 0,
+               offsetof(struct pk_gc_cmd, u) - offsetof(struct pk_gc_cmd, start_um));
+    return rc;
+}
+
 int pk_gcode_interp(struct pk_gc_state *st, const struct pk_gc_block *b,
                     const struct pk_gc_env *env, struct pk_gc_cmd *cmd)
 {
-    return interp(st, b, env, 0, st, cmd);
+    return cmd_done(interp(st, b, env, 0, st, cmd), cmd);
 }
 
 int pk_gcode_jog(const struct pk_gc_state *st, const struct pk_gc_block *b, struct pk_gc_cmd *cmd)
 {
     struct pk_gc_state n;
-    return interp(st, b, NULL, 1, &n, cmd);
+    return cmd_done(interp(st, b, NULL, 1, &n, cmd), cmd);
 }

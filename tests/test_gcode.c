@@ -201,7 +201,27 @@ static void test_number_syntax_follows_grbl(void)
     TH_EXPECT(wval(&b, PK_GC_W_X) == 1.5L);
     TH_EXPECT_EQ(parse("X999999999", &b), PK_GC_OK);
     TH_EXPECT_EQ(parse("X1234567890", &b), PK_GC_E_BAD_NUMBER); /* a tenth integer digit */
+    /* mantissas across the parser's 16-bit/32-bit step (6553 * 10 + 9 is
+     * the largest 16-bit one), blanks inside included */
+    static const struct { const char *s; int32_t m; uint8_t dec; } mant[] = {
+        { "X6552.9", 65529, 1 }, { "X6553.5", 65535, 1 }, { "X655.36", 65536, 2 },
+        { "X-6553.59", -655359, 2 }, { "X65 53.6", 65536, 1 }, { "X0.0065536", 65536, 7 },
+        { "X99999999.99", 999999999, 1 }, { "X6553.612345678", 655361234, 5 },
+    };
+    for (size_t i = 0; i < sizeof mant / sizeof mant[0]; i++) {
+        TH_EXPECT_EQ(parse(mant[i].s, &b), PK_GC_OK);
+        TH_EXPECT_EQ(b.m[PK_GC_W_X], mant[i].m);
+        TH_EXPECT_EQ(b.dec[PK_GC_W_X], mant[i].dec);
+    }
     int32_t v;
+    /* inches: rounded half away from zero on both signs */
+    TH_EXPECT_EQ(pk_gcode_len_um(-1, 4, PK_GC_INCH, &v), PK_GC_OK);
+    TH_EXPECT_EQ(v, -3); /* -2.54 µm */
+    TH_EXPECT_EQ(pk_gcode_len_um(1, 4, PK_GC_INCH, &v), PK_GC_OK);
+    TH_EXPECT_EQ(v, 3);
+    TH_EXPECT_EQ(pk_gcode_len_um(-84546, 0, PK_GC_INCH, &v), PK_GC_OK);
+    TH_EXPECT_EQ(v, -2147468400);
+    TH_EXPECT_EQ(pk_gcode_len_um(-84547, 0, PK_GC_INCH, &v), PK_GC_E_BAD_NUMBER);
     TH_EXPECT_EQ(pk_gcode_scaled(1999, 3, 0, &v), PK_GC_OK);
     TH_EXPECT_EQ(v, 2);
     TH_EXPECT_EQ(pk_gcode_scaled(-1500, 3, 0, &v), PK_GC_OK);
