@@ -106,8 +106,6 @@ void pk_planner_init(struct pk_planner *p, const struct pk_planner_limits *lim)
     p->lim = *lim;
     p->ovr_feed_pct = 100u;
     p->ovr_rapid_pct = 100u;
-    p->nom_feed_pct = 100u;
-    p->nom_rapid_pct = 100u;
 }
 
 void pk_planner_break(struct pk_planner *p)
@@ -129,6 +127,8 @@ pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_blo
 
 void pk_planner_set_override(struct pk_planner *p, uint16_t feed_pct, uint16_t rapid_pct)
 {
+    if (feed_pct != p->ovr_feed_pct || rapid_pct != p->ovr_rapid_pct)
+        p->nom_dirty = true; /* (the next replan recomputes every nominal) */
     p->ovr_feed_pct = feed_pct;
     p->ovr_rapid_pct = rapid_pct;
 }
@@ -332,8 +332,6 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->v_lim = v_lim;
     b->v_req = feed;
     b->v2_nom = pk_planner_nominal_v2(p, b);
-    if (p->ovr_feed_pct != p->nom_feed_pct || p->ovr_rapid_pct != p->nom_rapid_pct)
-        p->nom_dirty = true;
     pk_v2_q4_t vj = 0;
     if (p->have_prev) {
         struct pk_planner_dyn dyn;
@@ -437,18 +435,15 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
      * when the overrides changed since (each is two 64-bit divisions, the
      * bulk of a replan on an 8-bit core: 16 blocks, ~50,000 cycles, redone
      * every replan before). The same values as recomputing them every time
-     * (a block added under other overrides than the rest sets nom_dirty). A
+     * (a block added after an override change is recomputed with the rest). A
      * LINE block pushed without pk_planner_add_line has v2_nom = 0 (never a
      * nominal: at least 1) and gets one here. */
-    const bool ovr_changed =
-        p->nom_dirty || p->ovr_feed_pct != p->nom_feed_pct || p->ovr_rapid_pct != p->nom_rapid_pct;
+    const bool ovr_changed = p->nom_dirty;
     for (uint32_t k = 0; k < n; k++) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type == PK_BLK_LINE && (ovr_changed || b->v2_nom == 0u))
             b->v2_nom = pk_planner_nominal_v2(p, b);
     }
-    p->nom_feed_pct = p->ovr_feed_pct;
-    p->nom_rapid_pct = p->ovr_rapid_pct;
     p->nom_dirty = false;
     /* Incremental (Grbl's planned pointer). Since the last replan the step
      * generator may have taken blocks off the tail (popped) and the machine
@@ -464,17 +459,14 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
      * whose exit comes out as before (every later exit depends only on it
      * and on unchanged reverse values) until the blocks the reverse pass
      * redid. The same plan as from scratch (tests/test_motion_planner.c). */
-    uint32_t lo_rev = 0, lo_fwd = 0, popped = 0, appended = n, anchor0 = 0;
-    const bool same_start = v2_now == p->plan_v2_now && rem_q8 == p->plan_rem_q8;
+    uint32_t lo_rev = 0, lo_fwd = 0, anchor0 = 0;
     if (p->plan_valid && !ovr_changed && end_known == p->plan_end_known) {
-        popped = (uint16_t)(q->pops - p->plan_pops);
+        const uint32_t popped = (uint16_t)(q->pops - p->plan_pops);
         if (popped <= p->plan_count && n + popped >= p->plan_count) {
-            appended = n + popped - p->plan_count;
+            const bool appended = n + popped > p->plan_count;
             anchor0 = p->plan_anchor >= popped ? p->plan_anchor - popped : 0u;
-            lo_rev = appended == 0u ? n : anchor0;
-            lo_fwd = popped == 0u && same_start ? lo_rev : 0u;
-        } else {
-            popped = 0;
+            lo_rev = appended ? anchor0 : n;
+            lo_fwd = popped == 0u && v2_now == p->plan_v2_now && rem_q8 == p->plan_rem_q8 ? lo_rev : 0u;
         }
     }
     /* Reverse pass: the newest block ends at rest. next_entry = entry ceiling
@@ -523,10 +515,8 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         anchor = lo_rev; /* (the old anchor, capped again: see above) */
     /* Forward pass: from the current speed, acceleration caps each exit. */
     pk_v2_q4_t entry = v2_now;
-    if (lo_fwd > 0) {
-        const struct pk_block *a = pk_mq_at(q, lo_fwd - 1u);
-        entry = a->type == PK_BLK_LINE ? a->v2_exit : 0u;
-    }
+    if (lo_fwd > 0)
+        entry = pk_mq_at(q, lo_fwd - 1u)->v2_exit; /* (0 for a stop block) */
     for (uint32_t k = lo_fwd; k < n; k++) {
         struct pk_block *b = pk_mq_at(q, k);
         if (b->type != PK_BLK_LINE) {
@@ -544,8 +534,7 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         if (same && k > 0u && k + 1u < lo_rev) {
             /* as before from here up to the blocks the reverse pass redid */
             k = lo_rev - 1u;
-            const struct pk_block *a = pk_mq_at(q, k);
-            entry = a->type == PK_BLK_LINE ? a->v2_exit : 0u;
+            entry = pk_mq_at(q, k)->v2_exit;
         }
     }
     /* The final plans: the blocks from the tail up to the first end-limited

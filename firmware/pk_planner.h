@@ -37,12 +37,8 @@ struct pk_planner_limits {
 struct pk_planner {
     struct pk_planner_limits lim;
     uint16_t ovr_feed_pct, ovr_rapid_pct; /**< overrides (100 = none) */
-    uint16_t nom_feed_pct, nom_rapid_pct; /**< the overrides the queued blocks' v2_nom
-                                               were computed with (replan recomputes
-                                               them all only when these differ, or
-                                               when nom_dirty) */
-    bool nom_dirty;               /**< a block was added while the overrides differed from
-                                       nom_*: its nominal has other overrides than the rest */
+    bool nom_dirty;               /**< the overrides changed since the last replan: the
+                                       queued blocks' v2_nom are recomputed at the next */
     bool have_prev;               /**< the newest queued block is a LINE to join */
     pk_q30_t prev_u[PK_AXES];     /**< its unit vector */
     uint32_t prev_len_q8;         /**< its requested length */
