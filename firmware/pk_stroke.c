@@ -554,20 +554,22 @@ static int cross2(const int32_t a[2], int32_t bx, int32_t by)
     return c > 0 ? 1 : c < 0 ? -1 : 0;
 }
 
+/* d 2^38 / r truncated towards zero, as the 64-bit division gave (|d| << 8
+ * <= r < 2^31: pk_frac_q30 of |d| << 8, the sign put back). */
+static int32_t unit_q30(int32_t d, uint32_t r_q8)
+{
+    const int32_t u = (int32_t)pk_frac_q30((uint32_t)(d < 0 ? -d : d) << 8, r_q8);
+    return d < 0 ? -u : u;
+}
+
 /* The two directions from the anchor tangent to the disc of radius tol around
  * a point at d (|d| = r > tol), Q1.30, clockwise one first. */
 static void tangents(const int32_t d[2], uint32_t r_q8, uint32_t tol_q8, int32_t rt[2],
                      int32_t lt[2])
 {
     /* |d[i]| << 8 <= r (r = floor(|d| 256)) and tol < r: every factor is
-     * a ratio at most 1, within ±2^30 (pk_frac_q30: d 2^38 / r truncated
-     * towards zero, as the 64-bit division gave; r < 2^31) */
-    const uint32_t ax = (uint32_t)(d[0] < 0 ? -d[0] : d[0]) << 8, ay = (uint32_t)(d[1] < 0 ? -d[1] : d[1]) << 8;
-    int32_t ux = (int32_t)pk_frac_q30(ax, r_q8), uy = (int32_t)pk_frac_q30(ay, r_q8);
-    if (d[0] < 0)
-        ux = -ux;
-    if (d[1] < 0)
-        uy = -uy;
+     * a ratio at most 1, within ±2^30 */
+    int32_t ux = unit_q30(d[0], r_q8), uy = unit_q30(d[1], r_q8);
     uint64_t rr = (uint64_t)r_q8 * r_q8, tt = (uint64_t)tol_q8 * tol_q8;
     int32_t cb = (int32_t)pk_frac_q30(pk_isqrt64(rr - tt), r_q8); /* cos(beta) */
     int32_t sb = (int32_t)pk_frac_q30(tol_q8, r_q8);             /* sin(beta) */
