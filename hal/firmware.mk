@@ -107,13 +107,14 @@ $(FW_DIR)/$(2)/$(2).elf: $$(FWB_$(2)_OBJ) $$(FWB_$(2)_LDSCRIPT)
 $(FW_DIR)/$(2)/host/obj/%.o: %.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(CC) $$(CPPFLAGS_COMMON) $$(WARN) -Wno-array-bounds $$(OPT) $$(FWB_$(2)_DEFS) -MMD -MP -c $$< -o $$@
-$(FW_DIR)/$(2)/host/plotkin: $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC) host-sim/main.c)
+FWB_$(2)_HOSTOBJ = $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC))
+$(FW_DIR)/$(2)/host/plotkin: $$(FWB_$(2)_HOSTOBJ) $(FW_DIR)/$(2)/host/obj/host-sim/main.o
 	$$(CC) $$(OPT) -o $$@ $$^ $$(HOST_LIBS)
 # The motion property test (tests/test_motion_limits.c: rates, accelerations
 # and deviation over random programs) built with the board's knobs, so that
 # what a board changes in the motion core (PK_SG_SEG_HZ, queue depths) is held
 # to the same bounds as the default build (tests/extra/board_property.sh).
-$(FW_DIR)/$(2)/host/test_motion_limits: $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(FW_SRC) $$(HAL_SRC) $$(SIM_SRC) $$(TH_SRC) tests/test_motion_limits.c)
+$(FW_DIR)/$(2)/host/test_motion_limits: $$(FWB_$(2)_HOSTOBJ) $$(patsubst %.c,$(FW_DIR)/$(2)/host/obj/%.o,$$(TH_SRC) tests/test_motion_limits.c)
 	$$(CC) $$(OPT) -o $$@ $$^ $$(HOST_LIBS)
 # The backend alone on the board's part (tests/avr/hal_selftest.c): runs even
 # while the full image does not fit.

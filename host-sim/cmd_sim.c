@@ -213,14 +213,13 @@ static void print_json(FILE *f, const char *file, const struct pk_sim_result *r,
     fputs(",\n  \"over_limits\": [", f);
     for (unsigned a = 0; a < axes; a++) {
         const struct pk_rate *e = &r->rate[a];
-        int over = (e->cfg.v_limit > 0.0 && (e->speed16.proven_over || e->speed2.proven_over)) ||
-                   (e->cfg.a_limit > 0.0 && e->accel.proven_over);
+        int over = pk_rate_over_speed(e) || pk_rate_over_accel(e);
         fprintf(f, "%s%s", a ? ", " : "", over ? "true" : "false");
     }
     fputs("],\n  \"speed_jumps\": [", f);
     for (unsigned a = 0; a < axes; a++) {
         const struct pk_rate *e = &r->rate[a];
-        int jump = e->cfg.a_limit > 0.0 && e->accel_proven.proven_over;
+        int jump = pk_rate_speed_jumps(e);
         fprintf(f, "%s%s", a ? ", " : "", jump ? "true" : "false");
     }
     fputc(']', f);

@@ -136,6 +136,24 @@ struct pk_rate {
     uint64_t zero_dt;            /**< windows of zero duration (impossible in a valid trace) */
 };
 
+/** The verdicts of an axis's figures, beyond the step quantisation (what the
+ *  summary's limits line and `plotkin sim --json` report): over its max rate
+ *  over any 2 or 16 steps; over its acceleration between windows of >= 20 ms;
+ *  speed jumps, windows of 2-64 steps proving more than the acceleration
+ *  (the junction velocity jump at a corner). Each false without its limit. */
+static inline int pk_rate_over_speed(const struct pk_rate *e)
+{
+    return e->cfg.v_limit > 0.0 && (e->speed16.proven_over || e->speed2.proven_over);
+}
+static inline int pk_rate_over_accel(const struct pk_rate *e)
+{
+    return e->cfg.a_limit > 0.0 && e->accel.proven_over;
+}
+static inline int pk_rate_speed_jumps(const struct pk_rate *e)
+{
+    return e->cfg.a_limit > 0.0 && e->accel_proven.proven_over;
+}
+
 /** Start an estimator (figures cleared, scale 1). */
 void pk_rate_init(struct pk_rate *r, const struct pk_rate_cfg *cfg);
 

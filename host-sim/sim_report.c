@@ -78,17 +78,17 @@ static void limits_line(FILE *f, const struct pk_sim_result *r, unsigned axes)
         const struct pk_rate *e = &r->rate[a];
         double vl = e->cfg.v_limit, al = e->cfg.a_limit;
         double v = fmax(e->speed16.lo_max, e->speed2.lo_max);
-        if (vl > 0.0 && (e->speed16.proven_over || e->speed2.proven_over)) {
+        if (pk_rate_over_speed(e)) {
             fprintf(f, "%s%c over its max rate %.1f mm/s by at least %.0f%%", any ? "; " : "", axis_name[a], vl,
                     100.0 * (v / vl - 1.0));
             any = 1;
         }
-        if (al > 0.0 && e->accel.proven_over) {
+        if (pk_rate_over_accel(e)) {
             fprintf(f, "%s%c over its acceleration %.0f mm/s^2 by at least %.0f%% over 20 ms", any ? "; " : "",
                     axis_name[a], al, 100.0 * (e->accel.lo_abs_max / al - 1.0));
             any = 1;
         }
-        if (al > 0.0 && e->accel_proven.proven_over) {
+        if (pk_rate_speed_jumps(e)) {
             fprintf(f, "%s%c speed jumps: %.0f%% over its acceleration in windows of 2-64 steps", any ? "; " : "",
                     axis_name[a], 100.0 * (e->accel_proven.lo_abs_max / al - 1.0));
             any = 1;

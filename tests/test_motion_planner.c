@@ -86,23 +86,29 @@ static void test_micrometres_round_to_the_nearest_step_like_a_double_reference(v
     TH_EXPECT_EQ(bad, 0);
 }
 
-/* One random move (or, rarely, a dwell) at 80 steps/mm, planned in steps. */
-static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES])
+/* An XY move of d µm at 80 steps/mm, planned in steps. */
+static void add_move(struct pk_planner *p, struct pk_mq *q, const int32_t d[PK_AXES], pk_um_min_t feed,
+                     uint8_t flags)
 {
     pk_steps_t st[PK_AXES] = { 0 };
     int32_t dq[PK_AXES] = { 0 };
-    int mag = (xr() % 3 == 0) ? 20000 : 500;
-    d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
-    d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
     for (int i = 0; i < 2; i++) {
         st[i] = (pk_steps_t)(d[i] * 80 / 1000);
         dq[i] = (int32_t)((int64_t)st[i] * 1000 * 256 / 80);
     }
+    (void)pk_planner_add_line(p, q, dq, st, d, 0u, feed, flags);
+}
+
+/* One random move (or, rarely, a dwell) at 80 steps/mm, planned in steps. */
+static void add_random(struct pk_planner *p, struct pk_mq *q, int32_t d[PK_AXES])
+{
+    int mag = (xr() % 3 == 0) ? 20000 : 500;
+    d[0] = (int32_t)(xr() % (2u * mag + 1)) - mag;
+    d[1] = (int32_t)(xr() % (2u * mag + 1)) - mag;
     if (xr() % 17 == 0)
         (void)pk_planner_add_stop(p, q, PK_BLK_DWELL, 0, 0, 0);
     else
-        (void)pk_planner_add_line(p, q, dq, st, d, 0u, (pk_um_min_t)(60u * (1000u + xr() % 120000u)),
-                                  (uint8_t)(xr() % 2u ? PK_PLAN_SHARP : 0u));
+        add_move(p, q, d, (pk_um_min_t)(60u * (1000u + xr() % 120000u)), (uint8_t)(xr() % 2u ? PK_PLAN_SHARP : 0u));
 }
 
 /* Every planned block: exit <= nominal, exit <= next entry ceiling (junction),
@@ -213,15 +219,10 @@ static void add_curve(struct pk_planner *p, struct pk_mq *q, double *ang)
 {
     *ang += ((double)(xr() % 2001u) - 1000.0) * 2e-4;   /* +-0.2 rad */
     double len = 100.0 + (double)(xr() % 1900u);          /* 0.1 - 2 mm */
-    int32_t d[PK_AXES] = { 0 }, dq[PK_AXES] = { 0 };
-    pk_steps_t st[PK_AXES] = { 0 };
+    int32_t d[PK_AXES] = { 0 };
     d[0] = (int32_t)lround(len * cos(*ang));
     d[1] = (int32_t)lround(len * sin(*ang));
-    for (int i = 0; i < 2; i++) {
-        st[i] = (pk_steps_t)(d[i] * 80 / 1000);
-        dq[i] = (int32_t)((int64_t)st[i] * 1000 * 256 / 80);
-    }
-    (void)pk_planner_add_line(p, q, dq, st, d, 0u, (pk_um_min_t)(60u * (20000u + xr() % 80000u)), 0u);
+    add_move(p, q, d, (pk_um_min_t)(60u * (20000u + xr() % 80000u)), 0u);
 }
 
 /* The replan keeps what it computed (pk_planner_replan: the nominal speeds
