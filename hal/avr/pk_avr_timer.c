@@ -19,7 +19,10 @@
  *                the other interrupts get in first; the event is late by a
  *                few ticks, which the core's absolute timing absorbs)
  *            else: wait until now >= next, delay = cb(arg, now) with
- *                  interrupts on; STOP -> stop; next = now + delay
+ *                  interrupts on; STOP -> stop; next = now + delay;
+ *                  delay < 2^15 (nearly every step): OCRA = next's low
+ *                  16 bits, more than LEAD ticks left on TCNT -> done
+ *                  (16-bit arithmetic, no second clock read), else round
  *
  * The bound matters: while the step events come faster than the callbacks
  * run, every event is due when the previous callback returns, and an
@@ -146,7 +149,20 @@ ISR(PK_BOARD_STEP_COMP_vect)
             return;
         }
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-        a->next = now + delay;
+        uint32_t next = now + delay;
+        a->next = next;
+        if (delay < 0x8000u) {
+            /* the common case, the next event within half the counter's
+             * range: armed in 16 bits, without reading the clock again
+             * (|next - now| < 2^15, so the counter difference is the
+             * event's distance; more than LEAD ticks left after the write:
+             * the compare fires, as arm() decides) */
+            uint16_t at = (uint16_t)next;
+            PK_BOARD_STEP_OCR = at;
+            if ((int16_t)(at - PK_BOARD_STEP_TCNT) > (int16_t)PK_AVR_TIMER_LEAD)
+                return;
+            /* due within LEAD ticks or passed: the loop waits or re-arms */
+        }
     }
 }
 
