@@ -1154,13 +1154,21 @@ static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint
 }
 
 /* The HAL's step_pulse on the step path. A build that knows its HAL names
- * the function (PK_SG_PULSE_FN, e.g. the AVR boards: pk_avr_step_pulse8,
- * same contract as ops->step_pulse with 8-bit masks and a 16-bit width,
- * min(pulse_ticks, 65,535)) and the step path calls it directly: no table
- * load, no indirect call, narrow arguments. The table's step_pulse must
- * then be that HAL's (it decides hw_pulse). */
+ * the function (PK_SG_PULSE_FN, same contract as ops->step_pulse with 8-bit
+ * masks and a 16-bit width, min(pulse_ticks, 65,535)) and the step path
+ * calls it directly: no table load, no indirect call, narrow arguments; with
+ * PK_SG_PULSE_INC as well, a header of the HAL's that defines it inline (the
+ * AVR boards: hal/avr/pk_avr_pulse.h, pk_avr_step_pulse8_inline), so the
+ * step event makes no call and saves no registers for one. The table's
+ * step_pulse must then be that HAL's (it decides hw_pulse). */
 #ifdef PK_SG_PULSE_FN
+#ifdef PK_SG_PULSE_INC
+/* the board's header defines PK_SG_PULSE_FN inline (the AVR boards:
+ * hal/avr/pk_avr_pulse.h): the step event calls nothing */
+#include PK_SG_PULSE_INC
+#else
 int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
+#endif
 #define SG_STEP_PULSE(hal, mask, levels, w)                                                        \
     PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (uint16_t)((w) > 0xFFFFu ? 0xFFFFu : (w)))
 #else

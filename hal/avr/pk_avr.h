@@ -86,10 +86,11 @@ uint64_t pk_avr_clock_ticks(void *ctx);
  *  complement width_ticks (<= 32,767) later from compare B's interrupt.
  *  [ISR][MAIN] */
 int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks);
-/** The same with 8-bit masks and a 16-bit width (<= 32,767 used): what the
- *  step generator calls directly on the AVR boards (their board.mk:
- *  -DPK_SG_PULSE_FN=pk_avr_step_pulse8, see pk_stepgen.c), without the ops
- *  table. [ISR][MAIN] */
+/** The same with 8-bit masks and a 16-bit width (<= 32,767 used), out of
+ *  line; the step generator of the AVR boards compiles its body inline
+ *  instead (pk_avr_pulse.h; their board.mk: -DPK_SG_PULSE_INC,
+ *  -DPK_SG_PULSE_FN=pk_avr_step_pulse8_inline, see pk_stepgen.c), without
+ *  the ops table or a call. [ISR][MAIN] */
 int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
 
 /** Pen servo (pk_avr_servo8.c or pk_avr_servo16.c, as the board's source

@@ -52,6 +52,7 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include "board.h"
+#include "pk_avr_pulse.h"
 
 /** Callbacks one compare interrupt runs at most before it lets the main loop
  *  in (the longest step interrupt is about this many callbacks). */
@@ -60,9 +61,6 @@
  *  (more than the few ticks between reading the clock and writing OCRA, or
  *  the write would find the tick passed every time). */
 #define PK_AVR_TIMER_GAP 16u
-/** Pulses this short (ticks) are timed inside step_pulse instead of by the
- *  compare B interrupt (writing OCRB takes a few ticks). */
-#define PK_AVR_PULSE_SPIN 3u
 
 /* The clock's low 32 bits: overflow count (low half) and counter. A pending
  * overflow not yet counted (the counter wrapped since the overflow ISR ran)
@@ -98,24 +96,11 @@ static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a,
     return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 3;
 }
 
-/* The pulse's lines back to idle. Interrupts off. */
-static inline __attribute__((always_inline)) void pulse_end(struct pk_avr *a)
-{
-    pk_board_step_write(a->pulse_mask, a->pulse_idle);
-    PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_PULSE_OCIE));
-    a->pulse_on = 0u;
-}
-
-static inline __attribute__((always_inline)) uint8_t pulse_due(const struct pk_avr *a)
-{
-    return (int16_t)(PK_BOARD_STEP_TCNT - a->pulse_end) >= 0;
-}
-
 ISR(PK_BOARD_STEP_COMP_vect)
 {
     struct pk_avr *a = &pk_avr_board;
-    if (a->pulse_on && pulse_due(a))
-        pulse_end(a);
+    if (a->pulse_on && pk_avr_pulse_due(a))
+        pk_avr_pulse_end(a);
     uint8_t runs = 0u;
     for (;;) {
         uint32_t now = now32(a);
@@ -170,8 +155,8 @@ ISR(PK_BOARD_STEP_COMP_vect)
 ISR(PK_BOARD_PULSE_COMP_vect)
 {
     struct pk_avr *a = &pk_avr_board;
-    if (pulse_due(a))
-        pulse_end(a);
+    if (pk_avr_pulse_due(a))
+        pk_avr_pulse_end(a);
 }
 
 ISR(PK_BOARD_STEP_OVF_vect)
@@ -183,27 +168,7 @@ ISR(PK_BOARD_STEP_OVF_vect)
 
 int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks)
 {
-    struct pk_avr *a = ctx;
-    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : width_ticks;
-    uint8_t s = SREG;
-    cli();
-    if (a->pulse_on)
-        pulse_end(a); /* (the core never overlaps pulses) */
-    pk_board_step_write(mask, levels);
-    a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_mask = mask;
-    a->pulse_idle = (uint8_t)(~levels & mask);
-    if (w <= PK_AVR_PULSE_SPIN) {
-        while (!pulse_due(a))
-            ;
-        pk_board_step_write(a->pulse_mask, a->pulse_idle);
-    } else {
-        PK_BOARD_PULSE_OCR = a->pulse_end;
-        a->pulse_on = 1u;
-        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_PULSE_OCIE));
-    }
-    SREG = s;
-    return PK_HAL_OK;
+    return pk_avr_step_pulse8_inline(ctx, mask, levels, width_ticks);
 }
 
 int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
