@@ -860,9 +860,11 @@ static SG_COLD uint32_t isr_watch_stop(struct pk_stepgen *sg)
  * ticks Q16 (|d_q16| < 2^31). No 64-bit arithmetic on the step path. */
 static inline SG_INLINE void t_add(struct pk_stepgen *sg, int32_t d_q16)
 {
-    uint32_t f = (uint32_t)sg->next_f + ((uint32_t)d_q16 & 0xFFFFu);
-    sg->next_t += (uint32_t)(d_q16 >> 16) + (f >> 16);
-    sg->next_f = (uint16_t)f;
+    /* the fraction in 16 bits, its carry out (the sum wrapped) into the ticks */
+    const uint16_t lo = (uint16_t)d_q16;
+    const uint16_t f = (uint16_t)(sg->next_f + lo);
+    sg->next_t += (uint32_t)(d_q16 >> 16) + (f < lo ? 1u : 0u);
+    sg->next_f = f;
 }
 
 /* A SLOW chunk's interval is cut into waits of this many ticks while it is
@@ -1143,13 +1145,26 @@ static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 /* The emitted position: one step on every axis of mask, in its direction. */
 static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint8_t dir)
 {
-    if (mask & 1u)
-        sg->pos[0] += (dir & 1u) ? 1 : -1;
-    if (mask & 2u)
-        sg->pos[1] += (dir & 2u) ? 1 : -1;
+    /* (an increment or a decrement: no +-1 constant built in 32 bits) */
+    if (mask & 1u) {
+        if (dir & 1u)
+            sg->pos[0]++;
+        else
+            sg->pos[0]--;
+    }
+    if (mask & 2u) {
+        if (dir & 2u)
+            sg->pos[1]++;
+        else
+            sg->pos[1]--;
+    }
 #if PK_AXES > 2
-    if (mask & 4u)
-        sg->pos[2] += (dir & 4u) ? 1 : -1;
+    if (mask & 4u) {
+        if (dir & 4u)
+            sg->pos[2]++;
+        else
+            sg->pos[2]--;
+    }
 #endif
 }
 
@@ -1241,9 +1256,12 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
             return r;
         earliest = sg->earliest;
     }
-    /* the event's time: t += I, I += A (32-bit, the fraction in 16 bits) */
+    /* the event's time: t += I, I += A (32-bit, the fraction in 16 bits,
+     * t_add's arithmetic on locals: stored once, read no more) */
     const int32_t I = sg->I;
-    t_add(sg, I);
+    const uint16_t I_lo = (uint16_t)I;
+    uint16_t nf = (uint16_t)(sg->next_f + I_lo);
+    uint32_t nt = sg->next_t + (uint32_t)(I >> 16) + (nf < I_lo ? 1u : 0u);
     sg->I = I + sg->A;
     sg->left--;
     /* Late by more than the interval itself (the timer callback was held
@@ -1252,13 +1270,15 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
      * missed steps back to back at whatever rate the callback manages.
      * (next + I < now in Q16, with behind = now - next in ticks: I < 2^30,
      * so behind >= 2^15 is always late.) */
-    const int32_t behind = (int32_t)(now - sg->next_t);
-    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)sg->next_f + (uint32_t)I)) {
-        sg->next_t = now;
-        sg->next_f = 0u;
+    const int32_t behind = (int32_t)(now - nt);
+    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)nf + (uint32_t)I)) {
+        nt = now;
+        nf = 0u;
         sg->late++;
     }
-    uint32_t at = sg->next_t + (uint32_t)(sg->next_f >> 15);
+    sg->next_t = nt;
+    sg->next_f = nf;
+    uint32_t at = nt + (uint32_t)(nf >> 15);
     if ((int32_t)(at - earliest) < 0)
         at = earliest;
     if (sg->pulse_hot)
