@@ -12,10 +12,11 @@
  * Step timer (pk_avr_timer.c): a free-running 16-bit timer at
  * PK_BOARD_TICK_HZ (2 MHz), extended to 48 bits by its overflow interrupt; the
  * callback runs from compare A's interrupt at the tick it asked for. An event
- * due sooner than PK_AVR_TIMER_LEAD ticks after the previous one is not armed
- * (the compare could be passed before it is written) but waited for inside
- * the interrupt, so no event is ever early and none is lost; one interrupt
- * runs at most two callbacks (then it lets the main loop in). Step pulses end
+ * due within PK_AVR_TIMER_LEAD ticks when the previous callback returns is
+ * not armed for its tick (the compare could be passed before it is written)
+ * but a few ticks later, for the next interrupt: one interrupt runs one
+ * callback (the main loop gets in between), no event is ever early and none
+ * is lost. Step pulses end
  * by compare B's interrupt (the HAL's step_pulse), so a step is one callback.
  *
  * Calling contexts are those of struct pk_hal_ops (hal.h); everything here
@@ -29,10 +30,12 @@
 #include "hal.h"
 #include "pk_uart.h"
 
-/** Events closer than this (ticks) are waited for inside the ISR instead of
- *  being armed on the compare unit (leaving and re-entering the interrupt
- *  would take longer). Any value is safe: an event whose compare value the
- *  counter passed while it was being written is run at once. */
+/** Events closer than this (ticks) are not armed for their tick on the
+ *  compare unit (it could be passed before the write lands): one found due
+ *  at the interrupt's entry is waited for inside it, one due when the
+ *  callback returns is armed PK_AVR_TIMER_GAP ticks on. Any value is safe: an
+ *  event whose compare value the counter passed while it was being written
+ *  is run at once. */
 #define PK_AVR_TIMER_LEAD 4u
 
 /** The backend instance (private members: use the functions and the ops). */

@@ -9,35 +9,40 @@
  *
  *   service (the compare A ISR; timer_start only arms the first event):
  *     end a step pulse whose time is up (so no callback runs before it)
- *     loop:  now = clock
- *            next further than PK_AVR_TIMER_LEAD ticks ahead?
- *                write its low 16 bits to OCRA, read TCNT again: still before
- *                it -> done (the compare will fire); passed meanwhile -> go
- *                round (it is due now)
- *            PK_AVR_TIMER_BURST callbacks run in this interrupt already?
- *                next = now + GAP (armed as above: the main loop and
- *                the other interrupts get in first; the event is late by a
- *                few ticks, which the core's absolute timing absorbs)
- *            else: wait until now >= next, delay = cb(arg, now) with
- *                  interrupts on; STOP -> stop; next = now + delay;
- *                  delay < 2^15 (nearly every step): OCRA = next's low
- *                  16 bits, more than LEAD ticks left on TCNT -> done
- *                  (16-bit arithmetic, no second clock read), else round
+ *     now = clock
+ *     next further than PK_AVR_TIMER_LEAD ticks ahead (a stale flag, or a
+ *     next beyond the counter's range that matched at an earlier wrap)?
+ *         write its low 16 bits to OCRA, read TCNT again: still before it
+ *         -> done (the compare will fire); passed meanwhile -> it is due now
+ *     wait until now >= next, delay = cb(arg, now) with interrupts on;
+ *     STOP -> stop; next = now + delay, OCRA = its low 16 bits (16-bit
+ *     arithmetic: delay < 2^15 nearly always, no second clock read);
+ *     more than LEAD ticks left on TCNT (or delay >= 2^15) -> done;
+ *     else next = now + GAP, armed: one callback per interrupt, so that the
+ *     main loop and the other interrupts get in first (the event is late by
+ *     a few ticks, which the core's absolute timing absorbs)
  *
  * The bound matters: while the step events come faster than the callbacks
  * run, every event is due when the previous callback returns, and an
  * unbounded loop stays in the interrupt until the step ring is empty -- the
  * main loop, which refills it, starved (measured before the bound: one
  * compare interrupt of 191,588 cycles running 192 callbacks back to back at
- * 8,000 steps/s on the mega-ramps image, then an underrun; 42 of them).
+ * 8,000 steps/s on the mega-ramps image, then an underrun; 42 of them). It
+ * was two callbacks per interrupt until the step interrupt got cheaper: the
+ * longest interrupt was then a line block's set-up and the step after it
+ * (2,785 cycles on the bundled example, 1,815 with one callback); the mean
+ * and the sustained step rate did not suffer (892 cycles per step instead of
+ * 904; 14,000 steps/s sustained either way).
  *
  * A next more than 65,536 ticks ahead matches at an earlier wrap of TCNT;
  * the ISR then finds it not yet due and arms it again. A callback is never
- * run before its tick. Compare A is masked while the callback runs (with
- * interrupts on, so that the serial line, the clock overflow, the servo and
- * the pulse end are served meanwhile): a compare written for a tick the
- * counter had just reached leaves its flag set, which would otherwise enter
- * this interrupt again inside the callback.
+ * run before its tick. The callback runs with interrupts on, so that the
+ * serial line, the clock overflow, the servo and the pulse end are served
+ * meanwhile; compare A is masked then only if the ISR wrote OCRA for a tick
+ * the counter reached meanwhile (the arm that found it passed), whose flag
+ * may be set and would enter this interrupt again inside the callback.
+ * Otherwise OCRA holds the tick that has just matched (its flag cleared on
+ * entry), which the counter reaches again only 65,536 ticks later.
  *
  * Step pulses (pk_avr_step_pulse, the HAL's step_pulse): the lines go active
  * at once and compare unit B's interrupt returns them to idle width ticks
@@ -54,11 +59,8 @@
 #include "board.h"
 #include "pk_avr_pulse.h"
 
-/** Callbacks one compare interrupt runs at most before it lets the main loop
- *  in (the longest step interrupt is about this many callbacks). */
-#define PK_AVR_TIMER_BURST 2u
-/** A due event that a full burst left over is armed this many ticks ahead
- *  (more than the few ticks between reading the clock and writing OCRA, or
+/** An event due when the interrupt's callback returns is armed this many
+ *  ticks ahead (more than the few ticks between reading the clock and writing OCRA, or
  *  the write would find the tick passed every time). */
 #define PK_AVR_TIMER_GAP 16u
 
@@ -101,54 +103,50 @@ ISR(PK_BOARD_STEP_COMP_vect)
     struct pk_avr *a = &pk_avr_board;
     if (a->pulse_on && pk_avr_pulse_due(a))
         pk_avr_pulse_end(a);
-    uint8_t runs = 0u;
-    for (;;) {
-        uint32_t now = now32(a);
-        int32_t d = (int32_t)(a->next - now);
-        if (d <= (int32_t)PK_AVR_TIMER_LEAD && runs == PK_AVR_TIMER_BURST) {
-            a->next = now + PK_AVR_TIMER_GAP;
-            d = PK_AVR_TIMER_GAP;
-        }
-        if (d > (int32_t)PK_AVR_TIMER_LEAD) {
-            if (arm(a, (uint32_t)d))
-                return;
-            continue;
-        }
-        while (d > 0) {
-            now = now32(a);
-            d = (int32_t)(a->next - now);
-        }
-        runs++;
+    uint32_t now = now32(a);
+    int32_t d = (int32_t)(a->next - now);
+    uint8_t hold_cmp = 0u;
+    if (d > (int32_t)PK_AVR_TIMER_LEAD) {
+        if (arm(a, (uint32_t)d))
+            return;
+        hold_cmp = 1u; /* passed while armed: due now, its flag may be set */
+    }
+    while (d > 0) {
+        now = now32(a);
+        d = (int32_t)(a->next - now);
+    }
+    if (hold_cmp)
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
 #ifdef PK_BOARD_INPUTS
-        uint8_t held = pk_board_input_irq_hold(); /* no input edge inside the step callback */
+    uint8_t held = pk_board_input_irq_hold(); /* no input edge inside the step callback */
 #endif
-        sei();
-        uint32_t delay = a->cb(a->cb_arg, now);
-        cli();
+    sei();
+    uint32_t delay = a->cb(a->cb_arg, now);
+    cli();
 #ifdef PK_BOARD_INPUTS
-        pk_board_input_irq_release(held);
+    pk_board_input_irq_release(held);
 #endif
-        if (delay == PK_HAL_TIMER_STOP) {
-            a->armed = 0u;
-            return;
-        }
-        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-        uint32_t next = now + delay;
-        a->next = next;
-        if (delay < 0x8000u) {
-            /* the common case, the next event within half the counter's
-             * range: armed in 16 bits, without reading the clock again
-             * (|next - now| < 2^15, so the counter difference is the
-             * event's distance; more than LEAD ticks left after the write:
-             * the compare fires, as arm() decides) */
-            uint16_t at = (uint16_t)next;
-            PK_BOARD_STEP_OCR = at;
-            if ((int16_t)(at - PK_BOARD_STEP_TCNT) > (int16_t)PK_AVR_TIMER_LEAD)
-                return;
-            /* due within LEAD ticks or passed: the loop waits or re-arms */
-        }
+    if (delay == PK_HAL_TIMER_STOP) {
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
+        a->armed = 0u;
+        return;
     }
+    if (hold_cmp)
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
+    uint32_t next = now + delay;
+    a->next = next;
+    /* |next - now| < 2^15 (nearly every step): the counter difference is
+     * the event's distance; more than LEAD ticks left after the write: the
+     * compare fires, as arm() decides */
+    uint16_t at = (uint16_t)next;
+    PK_BOARD_STEP_OCR = at;
+    if (delay >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > (int16_t)PK_AVR_TIMER_LEAD)
+        return;
+    /* due within LEAD ticks, or passed: the next interrupt, GAP ticks on
+     * (more than LEAD: the compare fires) */
+    next = now32(a) + PK_AVR_TIMER_GAP;
+    a->next = next;
+    PK_BOARD_STEP_OCR = (uint16_t)next;
 }
 
 /* Compare B: the end of a step pulse (or a stale match: not yet its time). */
