@@ -911,8 +911,20 @@ static SG_COLD int isr_spindle(struct pk_stepgen *sg, const struct pk_hal *hal, 
     return 0;
 }
 
+/* A STEPS chunk starts (c, n events): first interval c0, then c1 changing
+ * by c2 per event; the difference c0 - c1 (|c0 - c1| < 2^30) is added once
+ * here, so that every event is the same two adds. */
+static inline SG_INLINE void isr_steps_start(struct pk_stepgen *sg, const struct pk_sg_chunk *c)
+{
+    sg->left = c->n;
+    t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+    sg->I = c->u.st.c1;
+    sg->A = c->u.st.c2;
+    sg->v_um_s = c->v_um_s;
+}
+
 /* One chunk of the ring's tail (c, at index t) that is not a plain STEPS
- * chunk with no watch armed (isr_next_chunk takes those itself): a line
+ * chunk with no watch armed (isr_chunks takes those itself): a line
  * block's set-up, tool, spindle, waits, SLOW events, or any chunk while a
  * watch is armed. Returns 1 with *ret = what the callback returns (the tail
  * moved or not as the chunk needs), or 0 once the chunk is done (the caller
@@ -966,11 +978,7 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
         }
         return 0;
     case PK_SGC_STEPS:
-        sg->left = c->n;
-        t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
-        sg->I = c->u.st.c1;
-        sg->A = c->u.st.c2;
-        sg->v_um_s = c->v_um_s;
+        isr_steps_start(sg, c);
         return 0;
     case PK_SGC_SLOW: {
         /* one event after a long interval: whole ticks + Q16 fraction
@@ -1017,7 +1025,12 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
 /* The ring's tail chunks once the current one is done (left == 0): run the
  * ones that are not steps (isr_chunk) and set up the next chunk of events.
  * Returns with an event set up (left > 0; the result is then unused), or
- * with left == 0 and what the callback returns. */
+ * with left == 0 and what the callback returns. Once per chunk: out of line,
+ * so that the step path does not pay for its registers. A STEPS chunk with
+ * no watch armed (nearly all of them) is set up here, without isr_chunk's
+ * frame, also the one right after a line block's set-up (the longest step
+ * interrupt: it once went through a first-chunk wrapper, this loop and
+ * isr_chunk twice, three register saves deep). */
 static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
     for (;;) {
@@ -1031,41 +1044,16 @@ static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_ha
         }
         struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
         uint32_t ret;
-        if (isr_chunk(sg, hal, now, c, t, &ret))
+        if (c->kind == PK_SGC_STEPS && sg->watch == 0u)
+            isr_steps_start(sg, c); /* (isr_chunk's case, without its frame:
+                                       the steps after a line block's set-up) */
+        else if (isr_chunk(sg, hal, now, c, t, &ret))
             return ret;
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
         if (sg->left != 0u)
             return 0u;
     }
-}
-
-/* isr_chunks, with its common case first: a STEPS chunk (nearly all of
- * them) with no watch armed is set up here, in few registers; anything else
- * goes on to isr_chunks (a tail call). Once per chunk: out of line, so that
- * the step path does not pay for its registers. */
-static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
-{
-    uint8_t t = sg->tail;
-    uint8_t h = sg->head;
-    PK_BARRIER(); /* read the chunk only after seeing it published */
-    if (t != h) {
-        const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (c->kind == PK_SGC_STEPS && c->n != 0u && sg->watch == 0u) {
-            /* first interval c0, then c1 changing by c2 per event: the
-             * difference c0 - c1 (|c0 - c1| < 2^30) is added once here, so
-             * that every event is the same two adds */
-            sg->left = c->n;
-            t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
-            sg->I = c->u.st.c1;
-            sg->A = c->u.st.c2;
-            sg->v_um_s = c->v_um_s;
-            PK_BARRIER(); /* done reading the slot before handing it back */
-            sg->tail = (uint8_t)(t + 1u);
-            return 0u;
-        }
-    }
-    return isr_chunks(sg, hal, now);
 }
 
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
@@ -1251,7 +1239,7 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
     }
     if (sg->left == 0u) {
         sg->earliest = earliest;
-        uint32_t r = isr_next_chunk(sg, hal, now);
+        uint32_t r = isr_chunks(sg, hal, now);
         if (sg->left == 0u)
             return r;
         earliest = sg->earliest;

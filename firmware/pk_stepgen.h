@@ -186,7 +186,7 @@ struct pk_stepgen {
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
     uint32_t pulse_ticks;      /**< configuration: step pulse width, ticks (>= 1) */
     uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
-    uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
+    uint32_t earliest;         /**< isr_chunks: no step edge before this tick */
 
     /* ---- configuration (set at init, read-only afterwards) ---- */
     uint8_t axes;              /**< axes driven */
