@@ -342,6 +342,13 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
     memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
     c->u.blk.period = 256u * b->events;   /* the Bresenham period (M <= 2^21) */
+    /* the axes whose Bresenham step can fire (struct pk_stepgen.bres),
+     * worked out here so that the block's switch in the ISR only copies */
+    uint8_t bres = 0u;
+    for (unsigned i = 0; i < sg->axes; i++)
+        if (b->inc[i] != 0u || b->acc0[i] >= 0)
+            bres |= (uint8_t)(1u << i);
+    c->n = bres;
     ring_commit(sg);
     sg->blk_sent = true;
     sg->v2_blk = sg->v2;
@@ -952,18 +959,14 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
         }
         if (c->spindle != sg->spindle_cur && isr_spindle(sg, hal, c->spindle, ret))
             return 1;
-        {
-            uint8_t bres = 0u, bit = 1u;
-            for (unsigned i = 0; i < sg->axes; i++, bit = (uint8_t)(bit << 1)) {
-                const uint32_t inc = c->u.blk.inc[i];
-                const int32_t acc = c->u.blk.acc0[i];
-                sg->inc[i] = inc;
-                sg->acc[i] = acc;
-                if (inc != 0u || acc >= 0)
-                    bres |= bit;
-            }
-            sg->bres = bres;
+        /* the Bresenham terms as blk_start prepared them: plain copies
+         * (every PK_AXES entry: those of axes not driven are never read,
+         * bres leaves them out) */
+        for (unsigned i = 0; i < PK_AXES; i++) {
+            sg->inc[i] = c->u.blk.inc[i];
+            sg->acc[i] = c->u.blk.acc0[i];
         }
+        sg->bres = (uint8_t)c->n;
         sg->period = c->u.blk.period;
         if (c->arg != sg->dir_cur) {
             const uint32_t all = (1u << sg->axes) - 1u;

@@ -125,7 +125,8 @@ struct pk_sg_chunk {
     uint8_t kind;              /**< enum pk_sg_chunk_kind */
     uint8_t arg;               /**< TOOL: logical level; BLOCK: logical directions */
     uint16_t n;                /**< STEPS: events (1..PK_SG_MAX_EVENTS); SLOW: the
-                                    interval's fraction of a tick, Q16 */
+                                    interval's fraction of a tick, Q16; BLOCK: the
+                                    axes whose Bresenham step can fire (bres) */
     union {
         struct { int32_t c0, c1, c2; } st; /**< STEPS: the first interval c0, then the
                                               k-th after it c1 + k c2 (k = 1..n-1);

@@ -56,6 +56,8 @@ struct pk_avr {
     /* inputs (pk_avr_inputs.c, boards with PK_BOARD_INPUTS) */
     pk_hal_input_cb in_cb;        /**< edge callback (input_watch, MAIN, ISR off) */
     void *in_arg;
+    volatile uint8_t in_step;     /**< the step callback runs (step ISR): an edge waits */
+    volatile uint8_t in_pend;     /**< an edge came meanwhile: reported after it */
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
     /* servo (the pen): the last spindle value (M3 S) is its down position */
@@ -107,6 +109,9 @@ int pk_avr_servo_write(void *ctx, uint16_t value_q16);
 int pk_avr_input_read(void *ctx, uint32_t *raw_levels);
 /** Edge reports from the board's pin-change / external interrupts. [MAIN] */
 int pk_avr_input_watch(void *ctx, pk_hal_input_cb cb, void *arg);
+/** The report of an edge that came while the step callback ran (in_pend),
+ *  once it has returned: the step ISR, interrupts off. */
+void pk_avr_input_pending(struct pk_avr *a);
 
 /** EEPROM store (pk_avr_nvm.c): the whole EEPROM, blocking. [MAIN] */
 uint32_t pk_avr_nvm_size(void *ctx);

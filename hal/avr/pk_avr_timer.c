@@ -118,35 +118,39 @@ ISR(PK_BOARD_STEP_COMP_vect)
     if (hold_cmp)
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
 #ifdef PK_BOARD_INPUTS
-    uint8_t held = pk_board_input_irq_hold(); /* no input edge inside the step callback */
+    a->in_step = 1u; /* an input edge meanwhile waits (pk_avr_inputs.c) */
 #endif
     sei();
     uint32_t delay = a->cb(a->cb_arg, now);
     cli();
 #ifdef PK_BOARD_INPUTS
-    pk_board_input_irq_release(held);
+    a->in_step = 0u;
 #endif
     if (delay == PK_HAL_TIMER_STOP) {
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
         a->armed = 0u;
-        return;
+    } else {
+        if (hold_cmp)
+            PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
+        uint32_t next = now + delay;
+        a->next = next;
+        /* |next - now| < 2^15 (nearly every step): the counter difference
+         * is the event's distance; more than LEAD ticks left after the
+         * write: the compare fires, as arm() decides */
+        uint16_t at = (uint16_t)next;
+        PK_BOARD_STEP_OCR = at;
+        if (delay < 0x8000u && (int16_t)(at - PK_BOARD_STEP_TCNT) <= (int16_t)PK_AVR_TIMER_LEAD) {
+            /* due within LEAD ticks, or passed: the next interrupt, GAP
+             * ticks on (more than LEAD: the compare fires) */
+            next = now32(a) + PK_AVR_TIMER_GAP;
+            a->next = next;
+            PK_BOARD_STEP_OCR = (uint16_t)next;
+        }
     }
-    if (hold_cmp)
-        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-    uint32_t next = now + delay;
-    a->next = next;
-    /* |next - now| < 2^15 (nearly every step): the counter difference is
-     * the event's distance; more than LEAD ticks left after the write: the
-     * compare fires, as arm() decides */
-    uint16_t at = (uint16_t)next;
-    PK_BOARD_STEP_OCR = at;
-    if (delay >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > (int16_t)PK_AVR_TIMER_LEAD)
-        return;
-    /* due within LEAD ticks, or passed: the next interrupt, GAP ticks on
-     * (more than LEAD: the compare fires) */
-    next = now32(a) + PK_AVR_TIMER_GAP;
-    a->next = next;
-    PK_BOARD_STEP_OCR = (uint16_t)next;
+#ifdef PK_BOARD_INPUTS
+    if (a->in_pend)
+        pk_avr_input_pending(a); /* the edge that came during the callback */
+#endif
 }
 
 /* Compare B: the end of a step pulse (or a stale match: not yet its time). */
@@ -182,6 +186,8 @@ void pk_avr_timer_init(struct pk_avr *a)
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
     a->pulse_on = 0u;
+    a->in_step = 0u;
+    a->in_pend = 0u;
     PK_BOARD_STEP_TIMSK = 0u;
     PK_BOARD_STEP_TCCRA = 0u;
     PK_BOARD_STEP_TCCRB = 0u;
