@@ -32,7 +32,7 @@
  * longest interrupt was then a line block's set-up and the step after it
  * (2,785 cycles on the bundled example, 1,815 with one callback); the mean
  * and the sustained step rate did not suffer (892 cycles per step instead of
- * 904; 14,000 steps/s sustained either way).
+ * 904 when it changed).
  *
  * A next more than 65,536 ticks ahead matches at an earlier wrap of TCNT;
  * the ISR then finds it not yet due and arms it again. A callback is never
