@@ -347,6 +347,13 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     memcpy(c->u.blk.inc, b->inc, sizeof c->u.blk.inc);
     memcpy(c->u.blk.acc0, b->acc0, sizeof c->u.blk.acc0);
     c->u.blk.period = 256u * b->events;   /* the Bresenham period (M <= 2^21) */
+    /* the axes whose Bresenham step can fire (struct pk_stepgen.bres),
+     * worked out here so that the block's switch in the ISR only copies */
+    uint8_t bres = 0u;
+    for (unsigned i = 0; i < sg->axes; i++)
+        if (b->inc[i] != 0u || b->acc0[i] >= 0)
+            bres |= (uint8_t)(1u << i);
+    c->n = bres;
     ring_commit(sg);
     sg->blk_sent = true;
     sg->v2_blk = sg->v2;
@@ -865,9 +872,11 @@ static SG_COLD uint32_t isr_watch_stop(struct pk_stepgen *sg)
  * ticks Q16 (|d_q16| < 2^31). No 64-bit arithmetic on the step path. */
 static inline SG_INLINE void t_add(struct pk_stepgen *sg, int32_t d_q16)
 {
-    uint32_t f = (uint32_t)sg->next_f + ((uint32_t)d_q16 & 0xFFFFu);
-    sg->next_t += (uint32_t)(d_q16 >> 16) + (f >> 16);
-    sg->next_f = (uint16_t)f;
+    /* the fraction in 16 bits, its carry out (the sum wrapped) into the ticks */
+    const uint16_t lo = (uint16_t)d_q16;
+    const uint16_t f = (uint16_t)(sg->next_f + lo);
+    sg->next_t += (uint32_t)(d_q16 >> 16) + (f < lo ? 1u : 0u);
+    sg->next_f = f;
 }
 
 /* A SLOW chunk's interval is cut into waits of this many ticks while it is
@@ -914,8 +923,20 @@ static SG_COLD int isr_spindle(struct pk_stepgen *sg, const struct pk_hal *hal, 
     return 0;
 }
 
+/* A STEPS chunk starts (c, n events): first interval c0, then c1 changing
+ * by c2 per event; the difference c0 - c1 (|c0 - c1| < 2^30) is added once
+ * here, so that every event is the same two adds. */
+static inline SG_INLINE void isr_steps_start(struct pk_stepgen *sg, const struct pk_sg_chunk *c)
+{
+    sg->left = c->n;
+    t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
+    sg->I = c->u.st.c1;
+    sg->A = c->u.st.c2;
+    sg->v_um_s = c->v_um_s;
+}
+
 /* One chunk of the ring's tail (c, at index t) that is not a plain STEPS
- * chunk with no watch armed (isr_next_chunk takes those itself): a line
+ * chunk with no watch armed (isr_chunks takes those itself): a line
  * block's set-up, tool, spindle, waits, SLOW events, or any chunk while a
  * watch is armed. Returns 1 with *ret = what the callback returns (the tail
  * moved or not as the chunk needs), or 0 once the chunk is done (the caller
@@ -943,18 +964,14 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
         }
         if (c->spindle != sg->spindle_cur && isr_spindle(sg, hal, c->spindle, ret))
             return 1;
-        {
-            uint8_t bres = 0u, bit = 1u;
-            for (unsigned i = 0; i < sg->axes; i++, bit = (uint8_t)(bit << 1)) {
-                const uint32_t inc = c->u.blk.inc[i];
-                const int32_t acc = c->u.blk.acc0[i];
-                sg->inc[i] = inc;
-                sg->acc[i] = acc;
-                if (inc != 0u || acc >= 0)
-                    bres |= bit;
-            }
-            sg->bres = bres;
+        /* the Bresenham terms as blk_start prepared them: plain copies
+         * (every PK_AXES entry: those of axes not driven are never read,
+         * bres leaves them out) */
+        for (unsigned i = 0; i < PK_AXES; i++) {
+            sg->inc[i] = c->u.blk.inc[i];
+            sg->acc[i] = c->u.blk.acc0[i];
         }
+        sg->bres = (uint8_t)c->n;
         sg->period = c->u.blk.period;
         if (c->arg != sg->dir_cur) {
             const uint32_t all = (1u << sg->axes) - 1u;
@@ -969,11 +986,7 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
         }
         return 0;
     case PK_SGC_STEPS:
-        sg->left = c->n;
-        t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
-        sg->I = c->u.st.c1;
-        sg->A = c->u.st.c2;
-        sg->v_um_s = c->v_um_s;
+        isr_steps_start(sg, c);
         return 0;
     case PK_SGC_SLOW: {
         /* one event after a long interval: whole ticks + Q16 fraction
@@ -1020,7 +1033,12 @@ static SG_COLD int isr_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, ui
 /* The ring's tail chunks once the current one is done (left == 0): run the
  * ones that are not steps (isr_chunk) and set up the next chunk of events.
  * Returns with an event set up (left > 0; the result is then unused), or
- * with left == 0 and what the callback returns. */
+ * with left == 0 and what the callback returns. Once per chunk: out of line,
+ * so that the step path does not pay for its registers. A STEPS chunk with
+ * no watch armed (nearly all of them) is set up here, without isr_chunk's
+ * frame, also the one right after a line block's set-up (the longest step
+ * interrupt: it once went through a first-chunk wrapper, this loop and
+ * isr_chunk twice, three register saves deep). */
 static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
     for (;;) {
@@ -1034,41 +1052,16 @@ static SG_NOINLINE uint32_t isr_chunks(struct pk_stepgen *sg, const struct pk_ha
         }
         struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
         uint32_t ret;
-        if (isr_chunk(sg, hal, now, c, t, &ret))
+        if (c->kind == PK_SGC_STEPS && sg->watch == 0u)
+            isr_steps_start(sg, c); /* (isr_chunk's case, without its frame:
+                                       the steps after a line block's set-up) */
+        else if (isr_chunk(sg, hal, now, c, t, &ret))
             return ret;
         PK_BARRIER(); /* done reading the slot before handing it back */
         sg->tail = (uint8_t)(t + 1u);
         if (sg->left != 0u)
             return 0u;
     }
-}
-
-/* isr_chunks, with its common case first: a STEPS chunk (nearly all of
- * them) with no watch armed is set up here, in few registers; anything else
- * goes on to isr_chunks (a tail call). Once per chunk: out of line, so that
- * the step path does not pay for its registers. */
-static SG_NOINLINE uint32_t isr_next_chunk(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
-{
-    uint8_t t = sg->tail;
-    uint8_t h = sg->head;
-    PK_BARRIER(); /* read the chunk only after seeing it published */
-    if (t != h) {
-        const struct pk_sg_chunk *c = &sg->ring[t & SG_MASK];
-        if (c->kind == PK_SGC_STEPS && c->n != 0u && sg->watch == 0u) {
-            /* first interval c0, then c1 changing by c2 per event: the
-             * difference c0 - c1 (|c0 - c1| < 2^30) is added once here, so
-             * that every event is the same two adds */
-            sg->left = c->n;
-            t_add(sg, (int32_t)((uint32_t)c->u.st.c0 - (uint32_t)c->u.st.c1));
-            sg->I = c->u.st.c1;
-            sg->A = c->u.st.c2;
-            sg->v_um_s = c->v_um_s;
-            PK_BARRIER(); /* done reading the slot before handing it back */
-            sg->tail = (uint8_t)(t + 1u);
-            return 0u;
-        }
-    }
-    return isr_chunks(sg, hal, now);
 }
 
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
@@ -1148,24 +1141,45 @@ static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 /* The emitted position: one step on every axis of mask, in its direction. */
 static inline SG_INLINE void isr_count(struct pk_stepgen *sg, uint8_t mask, uint8_t dir)
 {
-    if (mask & 1u)
-        sg->pos[0] += (dir & 1u) ? 1 : -1;
-    if (mask & 2u)
-        sg->pos[1] += (dir & 2u) ? 1 : -1;
+    /* (an increment or a decrement: no +-1 constant built in 32 bits) */
+    if (mask & 1u) {
+        if (dir & 1u)
+            sg->pos[0]++;
+        else
+            sg->pos[0]--;
+    }
+    if (mask & 2u) {
+        if (dir & 2u)
+            sg->pos[1]++;
+        else
+            sg->pos[1]--;
+    }
 #if PK_AXES > 2
-    if (mask & 4u)
-        sg->pos[2] += (dir & 4u) ? 1 : -1;
+    if (mask & 4u) {
+        if (dir & 4u)
+            sg->pos[2]++;
+        else
+            sg->pos[2]--;
+    }
 #endif
 }
 
 /* The HAL's step_pulse on the step path. A build that knows its HAL names
- * the function (PK_SG_PULSE_FN, e.g. the AVR boards: pk_avr_step_pulse8,
- * same contract as ops->step_pulse with 8-bit masks and a 16-bit width,
- * min(pulse_ticks, 65,535)) and the step path calls it directly: no table
- * load, no indirect call, narrow arguments. The table's step_pulse must
- * then be that HAL's (it decides hw_pulse). */
+ * the function (PK_SG_PULSE_FN, same contract as ops->step_pulse with 8-bit
+ * masks and a 16-bit width, min(pulse_ticks, 65,535)) and the step path
+ * calls it directly: no table load, no indirect call, narrow arguments; with
+ * PK_SG_PULSE_INC as well, a header of the HAL's that defines it inline (the
+ * AVR boards: hal/avr/pk_avr_pulse.h, pk_avr_step_pulse8_inline), so the
+ * step event makes no call and saves no registers for one. The table's
+ * step_pulse must then be that HAL's (it decides hw_pulse). */
 #ifdef PK_SG_PULSE_FN
+#ifdef PK_SG_PULSE_INC
+/* the board's header defines PK_SG_PULSE_FN inline (the AVR boards:
+ * hal/avr/pk_avr_pulse.h): the step event calls nothing */
+#include PK_SG_PULSE_INC
+#else
 int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
+#endif
 #define SG_STEP_PULSE(hal, mask, levels, w)                                                        \
     PK_SG_PULSE_FN((hal)->ctx, (mask), (levels), (uint16_t)((w) > 0xFFFFu ? 0xFFFFu : (w)))
 #else
@@ -1233,14 +1247,17 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
     }
     if (sg->left == 0u) {
         sg->earliest = earliest;
-        uint32_t r = isr_next_chunk(sg, hal, now);
+        uint32_t r = isr_chunks(sg, hal, now);
         if (sg->left == 0u)
             return r;
         earliest = sg->earliest;
     }
-    /* the event's time: t += I, I += A (32-bit, the fraction in 16 bits) */
+    /* the event's time: t += I, I += A (32-bit, the fraction in 16 bits,
+     * t_add's arithmetic on locals: stored once, read no more) */
     const int32_t I = sg->I;
-    t_add(sg, I);
+    const uint16_t I_lo = (uint16_t)I;
+    uint16_t nf = (uint16_t)(sg->next_f + I_lo);
+    uint32_t nt = sg->next_t + (uint32_t)(I >> 16) + (nf < I_lo ? 1u : 0u);
     sg->I = I + sg->A;
     sg->left--;
     /* Late by more than the interval itself (the timer callback was held
@@ -1249,13 +1266,15 @@ uint32_t pk_sg_isr(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now
      * missed steps back to back at whatever rate the callback manages.
      * (next + I < now in Q16, with behind = now - next in ticks: I < 2^30,
      * so behind >= 2^15 is always late.) */
-    const int32_t behind = (int32_t)(now - sg->next_t);
-    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)sg->next_f + (uint32_t)I)) {
-        sg->next_t = now;
-        sg->next_f = 0u;
+    const int32_t behind = (int32_t)(now - nt);
+    if (behind > 0 && (behind >= 0x8000 || ((uint32_t)behind << 16) > (uint32_t)nf + (uint32_t)I)) {
+        nt = now;
+        nf = 0u;
         sg->late++;
     }
-    uint32_t at = sg->next_t + (uint32_t)(sg->next_f >> 15);
+    sg->next_t = nt;
+    sg->next_f = nf;
+    uint32_t at = nt + (uint32_t)(nf >> 15);
     if ((int32_t)(at - earliest) < 0)
         at = earliest;
     if (sg->pulse_hot)

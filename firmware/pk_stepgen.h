@@ -150,7 +150,8 @@ struct pk_sg_chunk {
     uint8_t kind;              /**< enum pk_sg_chunk_kind */
     uint8_t arg;               /**< TOOL: logical level; BLOCK: logical directions */
     uint16_t n;                /**< STEPS: events (1..PK_SG_MAX_EVENTS); SLOW: the
-                                    interval's fraction of a tick, Q16 */
+                                    interval's fraction of a tick, Q16; BLOCK: the
+                                    axes whose Bresenham step can fire (bres) */
     union {
         struct { int32_t c0, c1, c2; } st; /**< STEPS: the first interval c0, then the
                                               k-th after it c1 + k c2 (k = 1..n-1);
@@ -211,7 +212,7 @@ struct pk_stepgen {
     pk_steps_t pos[PK_AXES];   /**< emitted steps (MAIN reads under irq_save) */
     uint32_t pulse_ticks;      /**< configuration: step pulse width, ticks (>= 1) */
     uint32_t low_until;        /**< hw_pulse: no step edge before this tick */
-    uint32_t earliest;         /**< isr_next_chunk: no step edge before this tick */
+    uint32_t earliest;         /**< isr_chunks: no step edge before this tick */
 
     /* ---- configuration (set at init, read-only afterwards) ---- */
     uint8_t axes;              /**< axes driven */

@@ -12,10 +12,11 @@
  * Step timer (pk_avr_timer.c): a free-running 16-bit timer at
  * PK_BOARD_TICK_HZ (2 MHz), extended to 48 bits by its overflow interrupt; the
  * callback runs from compare A's interrupt at the tick it asked for. An event
- * due sooner than PK_AVR_TIMER_LEAD ticks after the previous one is not armed
- * (the compare could be passed before it is written) but waited for inside
- * the interrupt, so no event is ever early and none is lost; one interrupt
- * runs at most two callbacks (then it lets the main loop in). Step pulses end
+ * due within PK_AVR_TIMER_LEAD ticks when the previous callback returns is
+ * not armed for its tick (the compare could be passed before it is written)
+ * but a few ticks later, for the next interrupt: one interrupt runs one
+ * callback (the main loop gets in between), no event is ever early and none
+ * is lost. Step pulses end
  * by compare B's interrupt (the HAL's step_pulse), so a step is one callback.
  *
  * Calling contexts are those of struct pk_hal_ops (hal.h); everything here
@@ -29,10 +30,12 @@
 #include "hal.h"
 #include "pk_uart.h"
 
-/** Events closer than this (ticks) are waited for inside the ISR instead of
- *  being armed on the compare unit (leaving and re-entering the interrupt
- *  would take longer). Any value is safe: an event whose compare value the
- *  counter passed while it was being written is run at once. */
+/** Events closer than this (ticks) are not armed for their tick on the
+ *  compare unit (it could be passed before the write lands): one found due
+ *  at the interrupt's entry is waited for inside it, one due when the
+ *  callback returns is armed PK_AVR_TIMER_GAP ticks on. Any value is safe: an
+ *  event whose compare value the counter passed while it was being written
+ *  is run at once. */
 #define PK_AVR_TIMER_LEAD 4u
 
 /** The backend instance (private members: use the functions and the ops). */
@@ -53,6 +56,8 @@ struct pk_avr {
     /* inputs (pk_avr_inputs.c, boards with PK_BOARD_INPUTS) */
     pk_hal_input_cb in_cb;        /**< edge callback (input_watch, MAIN, ISR off) */
     void *in_arg;
+    volatile uint8_t in_step;     /**< the step callback runs (step ISR): an edge waits */
+    volatile uint8_t in_pend;     /**< an edge came meanwhile: reported after it */
     /* serial */
     struct pk_uart *uart;         /**< rings of the UART (pk_avr_uart_start) */
     /* servo (the pen): the last spindle value (M3 S) is its down position */
@@ -86,10 +91,11 @@ uint64_t pk_avr_clock_ticks(void *ctx);
  *  complement width_ticks (<= 32,767) later from compare B's interrupt.
  *  [ISR][MAIN] */
 int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks);
-/** The same with 8-bit masks and a 16-bit width (<= 32,767 used): what the
- *  step generator calls directly on the AVR boards (their board.mk:
- *  -DPK_SG_PULSE_FN=pk_avr_step_pulse8, see pk_stepgen.c), without the ops
- *  table. [ISR][MAIN] */
+/** The same with 8-bit masks and a 16-bit width (<= 32,767 used), out of
+ *  line; the step generator of the AVR boards compiles its body inline
+ *  instead (pk_avr_pulse.h; their board.mk: -DPK_SG_PULSE_INC,
+ *  -DPK_SG_PULSE_FN=pk_avr_step_pulse8_inline, see pk_stepgen.c), without
+ *  the ops table or a call. [ISR][MAIN] */
 int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks);
 
 /** Pen servo (pk_avr_servo8.c or pk_avr_servo16.c, as the board's source
@@ -103,6 +109,9 @@ int pk_avr_servo_write(void *ctx, uint16_t value_q16);
 int pk_avr_input_read(void *ctx, uint32_t *raw_levels);
 /** Edge reports from the board's pin-change / external interrupts. [MAIN] */
 int pk_avr_input_watch(void *ctx, pk_hal_input_cb cb, void *arg);
+/** The report of an edge that came while the step callback ran (in_pend),
+ *  once it has returned: the step ISR, interrupts off. */
+void pk_avr_input_pending(struct pk_avr *a);
 
 /** EEPROM store (pk_avr_nvm.c): the whole EEPROM, blocking. [MAIN] */
 uint32_t pk_avr_nvm_size(void *ctx);

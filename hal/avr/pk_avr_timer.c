@@ -9,32 +9,44 @@
  *
  *   service (the compare A ISR; timer_start only arms the first event):
  *     end a step pulse whose time is up (so no callback runs before it)
- *     loop:  now = clock
- *            next further than PK_AVR_TIMER_LEAD ticks ahead?
- *                write its low 16 bits to OCRA, read TCNT again: still before
- *                it -> done (the compare will fire); passed meanwhile -> go
- *                round (it is due now)
- *            PK_AVR_TIMER_BURST callbacks run in this interrupt already?
- *                next = now + GAP (armed as above: the main loop and
- *                the other interrupts get in first; the event is late by a
- *                few ticks, which the core's absolute timing absorbs)
- *            else: wait until now >= next, delay = cb(arg, now) with
- *                  interrupts on; STOP -> stop; next = now + delay
+ *     now = clock
+ *     next further than PK_AVR_TIMER_LEAD ticks ahead (a stale flag, or a
+ *     next beyond the counter's range that matched at an earlier wrap)?
+ *         write its low 16 bits to OCRA, read TCNT again: still before it
+ *         -> done (the compare will fire); passed meanwhile -> it is due now
+ *     wait until now >= next, delay = cb(arg, now) with interrupts on;
+ *     STOP -> stop; next = now + delay, OCRA = its low 16 bits (16-bit
+ *     arithmetic: delay < 2^15 nearly always, no second clock read);
+ *     more than LEAD ticks left on TCNT (or delay >= 2^15) -> done;
+ *     else next = now + GAP, armed: one callback per interrupt, so that the
+ *     main loop and the other interrupts get in first (the event is late by
+ *     a few ticks, which the core's absolute timing absorbs)
  *
  * The bound matters: while the step events come faster than the callbacks
  * run, every event is due when the previous callback returns, and an
  * unbounded loop stays in the interrupt until the step ring is empty -- the
  * main loop, which refills it, starved (measured before the bound: one
  * compare interrupt of 191,588 cycles running 192 callbacks back to back at
- * 8,000 steps/s on the mega-ramps image, then an underrun; 42 of them).
+ * 8,000 steps/s on the mega-ramps image, then an underrun; 42 of them). It
+ * was two callbacks per interrupt until the step interrupt got cheaper: the
+ * longest interrupt was then a line block's set-up and the step after it
+ * (2,785 cycles on the bundled example, 1,815 with one callback); the mean
+ * and the sustained step rate did not suffer (892 cycles per step instead of
+ * 904 when it changed).
  *
  * A next more than 65,536 ticks ahead matches at an earlier wrap of TCNT;
  * the ISR then finds it not yet due and arms it again. A callback is never
- * run before its tick. Compare A is masked while the callback runs (with
- * interrupts on, so that the serial line, the clock overflow, the servo and
- * the pulse end are served meanwhile): a compare written for a tick the
- * counter had just reached leaves its flag set, which would otherwise enter
- * this interrupt again inside the callback.
+ * run before its tick. The callback runs with interrupts on, so that the
+ * serial line, the clock overflow, the servo and the pulse end are served
+ * meanwhile; compare A is masked then whenever its flag may be set again
+ * inside the callback, which would enter this interrupt a second time and
+ * run the callback inside itself (two of them consuming the step ring at
+ * once lost steps: 189 of 8,540 at 17,000 steps/s on mega-ramps while the
+ * ISR masked only after an arm that found its tick passed): after such an
+ * arm, when the event was waited for inside the interrupt or is less than
+ * two ticks old (its match may still come), or when the flag is set. Else
+ * OCRA holds a tick whose match has come and gone (its flag clear), which
+ * the counter reaches again only 65,536 ticks later.
  *
  * Step pulses (pk_avr_step_pulse, the HAL's step_pulse): the lines go active
  * at once and compare unit B's interrupt returns them to idle width ticks
@@ -49,17 +61,12 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include "board.h"
+#include "pk_avr_pulse.h"
 
-/** Callbacks one compare interrupt runs at most before it lets the main loop
- *  in (the longest step interrupt is about this many callbacks). */
-#define PK_AVR_TIMER_BURST 2u
-/** A due event that a full burst left over is armed this many ticks ahead
- *  (more than the few ticks between reading the clock and writing OCRA, or
+/** An event due when the interrupt's callback returns is armed this many
+ *  ticks ahead (more than the few ticks between reading the clock and writing OCRA, or
  *  the write would find the tick passed every time). */
 #define PK_AVR_TIMER_GAP 16u
-/** Pulses this short (ticks) are timed inside step_pulse instead of by the
- *  compare B interrupt (writing OCRB takes a few ticks). */
-#define PK_AVR_PULSE_SPIN 3u
 
 /* The clock's low 32 bits: overflow count (low half) and counter. A pending
  * overflow not yet counted (the counter wrapped since the overflow ISR ran)
@@ -95,67 +102,74 @@ static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a,
     return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 3;
 }
 
-/* The pulse's lines back to idle. Interrupts off. */
-static inline __attribute__((always_inline)) void pulse_end(struct pk_avr *a)
-{
-    pk_board_step_write(a->pulse_mask, a->pulse_idle);
-    PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_PULSE_OCIE));
-    a->pulse_on = 0u;
-}
-
-static inline __attribute__((always_inline)) uint8_t pulse_due(const struct pk_avr *a)
-{
-    return (int16_t)(PK_BOARD_STEP_TCNT - a->pulse_end) >= 0;
-}
-
 ISR(PK_BOARD_STEP_COMP_vect)
 {
     struct pk_avr *a = &pk_avr_board;
-    if (a->pulse_on && pulse_due(a))
-        pulse_end(a);
-    uint8_t runs = 0u;
-    for (;;) {
-        uint32_t now = now32(a);
-        int32_t d = (int32_t)(a->next - now);
-        if (d <= (int32_t)PK_AVR_TIMER_LEAD && runs == PK_AVR_TIMER_BURST) {
-            a->next = now + PK_AVR_TIMER_GAP;
-            d = PK_AVR_TIMER_GAP;
-        }
-        if (d > (int32_t)PK_AVR_TIMER_LEAD) {
-            if (arm(a, (uint32_t)d))
-                return;
-            continue;
-        }
-        while (d > 0) {
-            now = now32(a);
-            d = (int32_t)(a->next - now);
-        }
-        runs++;
+    if (a->pulse_on && pk_avr_pulse_due(a))
+        pk_avr_pulse_end(a);
+    uint32_t now = now32(a);
+    int32_t d = (int32_t)(a->next - now);
+    uint8_t hold_cmp = 0u;
+    if (d > (int32_t)PK_AVR_TIMER_LEAD) {
+        if (arm(a, (uint32_t)d))
+            return;
+        hold_cmp = 1u; /* passed while armed: due now, its flag may be set */
+    }
+    while (d > 0) {
+        now = now32(a);
+        d = (int32_t)(a->next - now);
+    }
+    /* OCRA holds next's low bits: its match may come after this interrupt
+     * was entered (entered on a stale flag, or waited for above) and set the
+     * flag again, which would enter this interrupt inside the callback. Two
+     * ticks past next, any match has set it already (a flag is set a timer
+     * clock after the match): then the flag says it; closer, assume it. */
+    if (d > -2 || (PK_BOARD_STEP_TIFR & _BV(PK_BOARD_STEP_OCF)))
+        hold_cmp = 1u;
+    if (hold_cmp)
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
 #ifdef PK_BOARD_INPUTS
-        uint8_t held = pk_board_input_irq_hold(); /* no input edge inside the step callback */
+    a->in_step = 1u; /* an input edge meanwhile waits (pk_avr_inputs.c) */
 #endif
-        sei();
-        uint32_t delay = a->cb(a->cb_arg, now);
-        cli();
+    sei();
+    uint32_t delay = a->cb(a->cb_arg, now);
+    cli();
 #ifdef PK_BOARD_INPUTS
-        pk_board_input_irq_release(held);
+    a->in_step = 0u;
 #endif
-        if (delay == PK_HAL_TIMER_STOP) {
-            a->armed = 0u;
-            return;
+    if (delay == PK_HAL_TIMER_STOP) {
+        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_STEP_OCIE));
+        a->armed = 0u;
+    } else {
+        if (hold_cmp)
+            PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
+        uint32_t next = now + delay;
+        a->next = next;
+        /* |next - now| < 2^15 (nearly every step): the counter difference
+         * is the event's distance; more than LEAD ticks left after the
+         * write: the compare fires, as arm() decides */
+        uint16_t at = (uint16_t)next;
+        PK_BOARD_STEP_OCR = at;
+        if (delay < 0x8000u && (int16_t)(at - PK_BOARD_STEP_TCNT) <= (int16_t)PK_AVR_TIMER_LEAD) {
+            /* due within LEAD ticks, or passed: the next interrupt, GAP
+             * ticks on (more than LEAD: the compare fires) */
+            next = now32(a) + PK_AVR_TIMER_GAP;
+            a->next = next;
+            PK_BOARD_STEP_OCR = (uint16_t)next;
         }
-        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_STEP_OCIE));
-        a->next = now + delay;
     }
+#ifdef PK_BOARD_INPUTS
+    if (a->in_pend)
+        pk_avr_input_pending(a); /* the edge that came during the callback */
+#endif
 }
 
 /* Compare B: the end of a step pulse (or a stale match: not yet its time). */
 ISR(PK_BOARD_PULSE_COMP_vect)
 {
     struct pk_avr *a = &pk_avr_board;
-    if (pulse_due(a))
-        pulse_end(a);
+    if (pk_avr_pulse_due(a))
+        pk_avr_pulse_end(a);
 }
 
 ISR(PK_BOARD_STEP_OVF_vect)
@@ -167,27 +181,7 @@ ISR(PK_BOARD_STEP_OVF_vect)
 
 int pk_avr_step_pulse8(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks)
 {
-    struct pk_avr *a = ctx;
-    uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : width_ticks;
-    uint8_t s = SREG;
-    cli();
-    if (a->pulse_on)
-        pulse_end(a); /* (the core never overlaps pulses) */
-    pk_board_step_write(mask, levels);
-    a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_mask = mask;
-    a->pulse_idle = (uint8_t)(~levels & mask);
-    if (w <= PK_AVR_PULSE_SPIN) {
-        while (!pulse_due(a))
-            ;
-        pk_board_step_write(a->pulse_mask, a->pulse_idle);
-    } else {
-        PK_BOARD_PULSE_OCR = a->pulse_end;
-        a->pulse_on = 1u;
-        PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_PULSE_OCIE));
-    }
-    SREG = s;
-    return PK_HAL_OK;
+    return pk_avr_step_pulse8_inline(ctx, mask, levels, width_ticks);
 }
 
 int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_ticks)
@@ -203,6 +197,8 @@ void pk_avr_timer_init(struct pk_avr *a)
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
     a->pulse_on = 0u;
+    a->in_step = 0u;
+    a->in_pend = 0u;
     PK_BOARD_STEP_TIMSK = 0u;
     PK_BOARD_STEP_TCCRA = 0u;
     PK_BOARD_STEP_TCCRB = 0u;

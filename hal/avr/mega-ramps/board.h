@@ -186,22 +186,4 @@ static inline void pk_board_input_edges(uint8_t on)
     PCICR = (uint8_t)(PCICR | PK_BOARD_INPUT_PCIE);
 }
 
-/** [ISR, interrupts off] Hold the edge interrupts off (their flags keep any
- *  edge pending); returns what to give back to pk_board_input_irq_release. */
-static inline __attribute__((always_inline)) uint8_t pk_board_input_irq_hold(void)
-{
-    uint8_t e = (uint8_t)(EIMSK & PK_BOARD_INPUT_EIMSK), p = (uint8_t)(PCICR & PK_BOARD_INPUT_PCIE);
-    EIMSK = (uint8_t)(EIMSK & (uint8_t)~PK_BOARD_INPUT_EIMSK);
-    PCICR = (uint8_t)(PCICR & (uint8_t)~PK_BOARD_INPUT_PCIE);
-    return (uint8_t)(e | p);
-}
-_Static_assert((PK_BOARD_INPUT_EIMSK & PK_BOARD_INPUT_PCIE) == 0, "the held bits share one byte");
-
-/** [ISR, interrupts off] Give the enables back. */
-static inline __attribute__((always_inline)) void pk_board_input_irq_release(uint8_t held)
-{
-    EIMSK = (uint8_t)(EIMSK | (held & PK_BOARD_INPUT_EIMSK));
-    PCICR = (uint8_t)(PCICR | (held & PK_BOARD_INPUT_PCIE));
-}
-
 #endif

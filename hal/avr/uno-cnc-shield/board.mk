@@ -19,7 +19,8 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # queues: see the size table of `make firmware`.
 # PK_SG_HW_PULSE=1: the AVR HAL ends step pulses itself (step_pulse), so the
 # step generator keeps its own pulse-ending path out of the step interrupt;
-# PK_SG_PULSE_FN: it calls the HAL's pk_avr_step_pulse8 directly (no ops table).
+# PK_SG_PULSE_FN / PK_SG_PULSE_INC: it compiles the HAL's step pulse into its step
+# path (hal/avr/pk_avr_pulse.h: no ops table, no call).
 # PK_FLASH_FIRST=1 (pk_munits.h): the chunk preparation's 64-bit helpers stay
 # out of line although pk_stepgen.c is compiled for speed (BOARD_HOT_SRC).
 # PK_SG_FINE_HZ=4000 (pk_stepgen.h): 2 events per exact step only in blocks
@@ -33,7 +34,7 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # them and let the ring run dry (chip 31.44 s against 30.47 s planned, 124
 # timer restarts); at 4 ms: 30.67 s against 30.48 s. 2.5 times finer than
 # Grbl's 10 ms segments, each with its interval ramp.
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8 -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=5 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8_inline -DPK_SG_PULSE_INC='"pk_avr_pulse.h"' -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_FLASH_FIRST=1 -DPK_AXES=2 -DPK_WIN=2 -DPK_MAX_DEPTH=5 -DPK_CLOSE_MAX=3 -DPK_MQ_CAP=8 \
                -DPK_BUILD_DEGREES=0x04 -DPK_BUILD_DLG=0 -DPK_BUILD_ENDS=0x02 -DPK_BUILD_CLOSED=0 -DPK_BUILD_LIMIT=0 \
                -DPK_SG_CHUNKS=4 -DPK_SG_MAX_EVENTS=32 -DPK_STROKE_DEC=16 -DPK_MACHINE_INQ=4 \
                -DPK_UART_TX_SIZE=64 -DPK_STROKE_FIXED=0 -DPK_BUILD_G5=0 -DPK_BUILD_ARCS=0 \
@@ -52,8 +53,8 @@ BOARD_HOT_SRC := firmware/pk_stepgen.c hal/avr/pk_avr_timer.c hal/avr/pk_avr_uar
 # job feeds a line only when 5 requests fit (host-sim/sim_job.c), so it needs
 # a deeper request FIFO than the Grbl engine on the board; the FIFO depth
 # does not change what the engine does.
-# (-UPK_SG_PULSE_FN: it has no AVR HAL.)
-BOARD_HOST_DEFS := -UPK_MACHINE_INQ -DPK_MACHINE_INQ=8 -UPK_SG_PULSE_FN
+# (-UPK_SG_PULSE_FN -UPK_SG_PULSE_INC: it has no AVR HAL.)
+BOARD_HOST_DEFS := -UPK_MACHINE_INQ -DPK_MACHINE_INQ=8 -UPK_SG_PULSE_FN -UPK_SG_PULSE_INC
 # ATmega328P with Optiboot (512 B): 32,768 - 512 B of flash, 2,048 B of RAM.
 BOARD_FLASH_MAX := 32256
 BOARD_RAM_MAX   := 2048
