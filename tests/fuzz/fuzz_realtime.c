@@ -32,6 +32,13 @@
  *     it); no hold or resume without its byte.
  *   - a '?' gets a status report (unless a reset came with it), never more
  *     reports than '?' bytes, every report whole ("<...>").
+ *   - the overrides follow Grbl's arithmetic: the override bytes (0x90-0x9D)
+ *     delivered before a main loop run act as Grbl's flags, each kind once
+ *     however often it came: feed and spindle reset to 100 %, then +10, -10,
+ *     +1, -1, clamped to 10..200 %; rapid 100 %, then 50, then 25 (the last
+ *     one of the batch in that order wins). A Ctrl-X in the batch drops them
+ *     and restores 100 % everywhere. The engine's values and what it last
+ *     handed to the machine (set_override) equal the model's after every run.
  *   - no accepted line is lost or duplicated: every line gets exactly one
  *     answer, in order (lines cut by a reset may go unanswered; an answer
  *     before the reset's greeting belongs to a line sent before it); a move
@@ -141,6 +148,21 @@ static uint32_t m_total(void *m) { (void)m; return M.cap; }
 static pk_gc_umpm_t m_speed(void *m) { (void)m; return M.q ? 1000000 : 0; }
 static int m_configure(void *m, const struct pk_grbl_settings *s) { (void)m; (void)s; return 0; }
 
+/* The overrides the machine was last given (set_override). */
+static struct {
+    unsigned feed, rapid, calls;
+} MO;
+static int m_override(void *m, uint16_t feed_pct, uint16_t rapid_pct)
+{
+    (void)m;
+    FZ_CHECK(feed_pct >= 10u && feed_pct <= 200u && (rapid_pct == 25u || rapid_pct == 50u || rapid_pct == 100u),
+             "the machine is given overrides within Grbl's ranges");
+    MO.feed = feed_pct;
+    MO.rapid = rapid_pct;
+    MO.calls++;
+    return 0;
+}
+
 static void m_run(unsigned n)
 {
     if (!M.held && !M.alarm)
@@ -174,7 +196,38 @@ static struct {
 /* realtime bytes delivered since the last main loop run */
 static struct {
     unsigned reset, hold, cycle, status, door, events;
+    uint32_t ovr; /* override bytes seen: bit (byte - 0x90) */
 } P;
+/* The overrides Grbl would have now (%). */
+static struct {
+    int feed, rapid, spindle;
+} OV;
+
+static int clamp_pct(int v) { return v > 200 ? 200 : v < 10 ? 10 : v; }
+
+/* Grbl 1.1's protocol_exec_rt_system on the override flags of one batch. */
+static void ovr_model(uint32_t f)
+{
+#define OVB(b) ((f >> ((b) - 0x90u)) & 1u)
+    int v = OV.feed;
+    if (OVB(0x90u)) v = 100;
+    if (OVB(0x91u)) v += 10;
+    if (OVB(0x92u)) v -= 10;
+    if (OVB(0x93u)) v += 1;
+    if (OVB(0x94u)) v -= 1;
+    OV.feed = clamp_pct(v);
+    if (OVB(0x95u)) OV.rapid = 100;
+    if (OVB(0x96u)) OV.rapid = 50;
+    if (OVB(0x97u)) OV.rapid = 25;
+    v = OV.spindle;
+    if (OVB(0x99u)) v = 100;
+    if (OVB(0x9Au)) v += 10;
+    if (OVB(0x9Bu)) v -= 10;
+    if (OVB(0x9Cu)) v += 1;
+    if (OVB(0x9Du)) v -= 1;
+    OV.spindle = clamp_pct(v);
+#undef OVB
+}
 static unsigned long q_bytes, reports;
 static int status_owed;
 
@@ -196,6 +249,8 @@ static void rx_byte(uint8_t b)
     P.status += b == '?';
     P.door += b == 0x84;
     P.events += b == '?' || b == '!' || b == '~' || b == 0x85;
+    if (b >= 0x90u && b <= 0x9Du)
+        P.ovr |= 1u << (b - 0x90u);
     q_bytes += b == '?';
 }
 
@@ -342,6 +397,14 @@ static void main_loop(void)
         FZ_CHECK(P.hold || P.door, "no hold without a '!' (or Grbl's safety door, 0x84)");
     if (M.resumes > resumes)
         FZ_CHECK(P.cycle, "no resume without a '~'");
+    if (P.reset)
+        OV.feed = OV.rapid = OV.spindle = 100;
+    else
+        ovr_model(P.ovr);
+    FZ_CHECK(G.ovr_feed == OV.feed && G.ovr_rapid == OV.rapid && G.ovr_spindle == OV.spindle,
+             "the overrides are Grbl's arithmetic on the override bytes of each batch");
+    FZ_CHECK(MO.calls > 0u && MO.feed == (unsigned)OV.feed && MO.rapid == (unsigned)OV.rapid,
+             "the machine runs under the overrides the engine has");
     memset(&P, 0, sizeof P);
     take_output(O.room);
 }
@@ -396,6 +459,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(&P, 0, sizeof P);
     memset(&O, 0, sizeof O);
     q_bytes = reports = 0;
+    memset(&MO, 0, sizeof MO);
+    OV.feed = OV.rapid = OV.spindle = 100;
     status_owed = 0;
     seq_next = 0;
     M.last_seq = -1;
@@ -408,7 +473,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         .move = m_move, .pen = m_pen, .dwell = m_dwell, .smoothing = m_smoothing, .end = m_end,
         .hold = m_hold, .resume = m_resume, .reset = m_reset, .position_um = m_position,
         .state = m_state, .blocks_free = m_free, .blocks_total = m_total, .speed_umpm = m_speed,
-        .configure = m_configure,
+        .configure = m_configure, .set_override = m_override,
     };
     struct pk_grbl_stream io = { pk_uart_read_cb, pk_uart_write_cb, pk_uart_rx_used_cb, &U };
     pk_uart_init(&U, pk_grbl_rt_filter, &G);
