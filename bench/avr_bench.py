@@ -22,7 +22,12 @@ it is what the board does, HAL and interrupts included. Per board:
      within 1 % of the planned one;
   3. the bundled example at F6000 (80 steps/mm), on-chip vs planned time, and
      the stalls while moving in the chip's pin trace (the ring ran dry at
-     speed), against the same count on `plotkin sim`'s trace.
+     speed), against the same count on `plotkin sim`'s trace;
+  4. a dense drawing, as SVG-to-G-code tools write them: the corpus file
+     bench/corpus/files/svg2gcode-smooth-curves.gcode (4,741 moves of about
+     0.2 mm) at F6000, smoothed within 0.02 mm and exact (G61): on-chip vs
+     planned time, step-timer restarts, the main loop's cycles per G-code line
+     and where they go (the functions that cost most, inclusive).
 
 Prints tables; never a pass/fail verdict on timing. Exits 1, after printing
 what it could, if a measurement was impossible (an image that does not fit
@@ -280,6 +285,44 @@ def max_rate(board, tmp):
           ' worst %d)' % ('{:,}'.format(lo) + ('' if hi is not None else '+'), GRBL_ISR[0], GRBL_ISR[1]))
 
 
+DENSE = 'bench/corpus/files/svg2gcode-smooth-curves.gcode'
+DENSE_FNS = ('pk_stroke_pull', 'pk_stroke_add', 'pk_refine_pull', 'pk_sg_prep', 'pk_planner_add_line',
+             'pk_planner_replan', 'pk_gcode_parse', 'pk_gcode_interp', 'pk_isqrt64', 'pk_frac_q30')
+
+
+def dense(board, tmp, elf):
+    """A dense drawing at F6000 (section 4 of the docstring)."""
+    body = re.sub(r'F300\b', 'F6000', open(DENSE).read())
+    print('\n%s: a dense drawing (%s, F300 made F6000: 4,741 moves of ~0.2 mm, 500 lines/s at speed)'
+          % (board, DENSE))
+    print('  %-22s %9s %9s %7s %9s %14s' % ('mode', 'chip s', 'plan s', 'x', 'restarts', 'cycles/line'))
+    prof = None
+    for mode, head in (('smoothed 0.02 mm', 'G64 P0.02\n'), ('exact (G61)', 'G61\n')):
+        fns = [a for f in DENSE_FNS for a in ('--fn', f)] if prof is None else []
+        d, err = avrsim(board, head + body, [], tmp, ['--elf', elf] + fns)
+        h = hostsim(board, head + body, [], tmp)
+        if d is None or h is None or not h.get('sim_time_s'):
+            impossible.append('%s, dense drawing %s: %s' % (board, mode, err or 'plotkin sim failed'))
+            continue
+        if fnc(d, 'pk_machine_poll')[0] == 0 or (prof is None and fnc(d, 'pk_stroke_pull')[0] == 0):
+            impossible.append('%s, dense drawing %s: the main-loop functions were not measured' % (board, mode))
+            continue
+        mp = fnc(d, 'pk_machine_poll')[1] + fnc(d, 'pk_grbl_poll')[1]
+        print('  %-22s %9.2f %9.2f %7.2f %9d %14s' % (mode, d['motion_s'], h['sim_time_s'],
+                                                     d['motion_s'] / h['sim_time_s'], d['timer_starts'] - 1,
+                                                     '{:,}'.format(int(mp / d['lines']))))
+        if prof is None:
+            prof = d
+    if prof is not None:
+        tot = prof['cycles']
+        print('  smoothed: main-loop functions, inclusive (%% of all %s cycles; calls; cycles a call;'
+              ' a share includes what the function calls: pk_refine_pull and most pk_isqrt64 and pk_frac_q30'
+              ' calls are inside pk_stroke_pull):' % '{:,}'.format(tot))
+        for f in DENSE_FNS:
+            calls, c = fnc(prof, f)[:2]
+            print('    %5.1f%%  %-22s %8d calls %8d' % (100.0 * c / tot, f, calls, c // max(1, calls)))
+
+
 STEP_VECTOR = {'uno-cnc-shield': 11, 'mega-ramps': 32}
 OFFS = {}
 
@@ -320,6 +363,7 @@ def main():
                 print('  stalls while moving (pin trace: a step gap over 4x the intervals around it, > 1 ms, no pen'
                       ' change): chip %d (%.1f ms in all, longest %.1f ms), plotkin sim %d (%.1f ms, longest %.1f ms)'
                       % (sc + sh))
+            dense(b, tmp, elf)
     if impossible:
         print('\nbench-avr: these measurements were impossible:')
         for m in impossible:
