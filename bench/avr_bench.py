@@ -194,8 +194,11 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
     row = lambda k, v: print('  %-52s %12s' % (k, v))
     row('step ISR cycles per step (mean, all its calls)', '%.0f' % (st['cycles'] / steps))
     row('longest step ISR (cycles, nested serial excluded)', '%d' % st['max'])
-    row('pk_machine_timer_cb per call: mean / worst cycles', '%.0f / %d' % (cb[1] / max(cb[0], 1), cb[2]))
-    row('  callbacks per step', '%.2f' % (cb[0] / steps))
+    if cb[0]:
+        row('pk_machine_timer_cb per call: mean / worst cycles', '%.0f / %d' % (cb[1] / cb[0], cb[2]))
+        row('  callbacks per step', '%.2f' % (cb[0] / steps))
+    else:
+        row('pk_machine_timer_cb per call', 'inline in ISR')
     row('pk_sg_prep cycles per chunk / calls per chunk', '%.0f / %.1f' % (prep[1] / chunks, prep[0] / chunks)
         if chunks else 'n/a')
     row('pk_planner_add_line cycles per call', '%.0f' % (add[1] / max(add[0], 1)))
@@ -225,9 +228,14 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
         print('  where the step ISR cycles go (flat profile, %% of %d cycles):' % tot)
         for k, v in sorted(prof.items(), key=lambda kv: -kv[1])[:12]:
             if k.startswith('__vector_'):
-                k += ' (HAL: the ISR with service() inlined)'
+                k += ' (HAL: the step-timer ISR, with what it inlines)'
             print('    %5.1f%%  %-46s %8.0f cycles/step' % (100.0 * v / tot, k, v / steps))
-        line_profile(elf, histf, syms, 'pk_sg_isr', steps)
+        # by source line: the function that holds the step path (pk_sg_isr,
+        # or the vector itself on a board that compiles it in)
+        hot = max((k for k in prof if k == 'pk_sg_isr' or k.startswith('__vector_')), key=lambda k: prof[k],
+                  default=None)
+        if hot is not None:
+            line_profile(elf, histf, syms, hot, steps, top=int(os.environ.get('PK_BENCH_LINES', '10')))
     return d
 
 

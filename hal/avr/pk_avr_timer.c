@@ -14,7 +14,9 @@
  *     next beyond the counter's range that matched at an earlier wrap)?
  *         write its low 16 bits to OCRA, read TCNT again: still before it
  *         -> done (the compare will fire); passed meanwhile -> it is due now
- *     wait until now >= next, delay = cb(arg, now) with interrupts on;
+ *     wait until now >= next, delay = cb(arg, now) with interrupts on
+ *     (a board with PK_AVR_STEP_INC: the step path compiled in here when cb
+ *     is its PK_AVR_STEP_CB, no call);
  *     STOP -> stop; next = now + delay, OCRA = its low 16 bits (16-bit
  *     arithmetic: delay < 2^15 nearly always, no second clock read);
  *     more than LEAD ticks left on TCNT (or delay >= 2^15) -> done;
@@ -62,6 +64,15 @@
 #include <avr/io.h>
 #include "board.h"
 #include "pk_avr_pulse.h"
+#ifdef PK_AVR_STEP_INC
+/* the board compiles the step path into this interrupt (board.mk:
+ * PK_AVR_STEP_INC, a header that defines PK_AVR_STEP_FN inline, the same
+ * code as the callback PK_AVR_STEP_CB): for that callback, the vector calls
+ * nothing on a step event and saves the registers the step path uses once,
+ * not once per call frame (the vector's, the callback's, pk_sg_isr's); any
+ * other callback is called as usual */
+#include PK_AVR_STEP_INC
+#endif
 
 /** An event due when the interrupt's callback returns is armed this many
  *  ticks ahead (more than the few ticks between reading the clock and writing OCRA, or
@@ -132,7 +143,11 @@ ISR(PK_BOARD_STEP_COMP_vect)
     a->in_step = 1u; /* an input edge meanwhile waits (pk_avr_inputs.c) */
 #endif
     sei();
+#ifdef PK_AVR_STEP_FN
+    uint32_t delay = a->cb == PK_AVR_STEP_CB ? PK_AVR_STEP_FN(a->cb_arg, now) : a->cb(a->cb_arg, now);
+#else
     uint32_t delay = a->cb(a->cb_arg, now);
+#endif
     cli();
 #ifdef PK_BOARD_INPUTS
     a->in_step = 0u;
