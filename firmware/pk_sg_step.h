@@ -235,6 +235,7 @@ static inline SG_INLINE uint32_t pk_sg_isr_inline(struct pk_stepgen *sg, const s
     }
     uint32_t earliest = now;
     const uint8_t phase = sg->phase;
+    uint8_t raised = 0u; /* a pulse raised by this call */
     if (phase == PK_SGP_STEP_DUE) {
         uint8_t mask = isr_bresenham(sg);
         /* armed, and something to do: inputs to read, a watch fired, an axis locked */
@@ -250,14 +251,17 @@ static inline SG_INLINE uint32_t pk_sg_isr_inline(struct pk_stepgen *sg, const s
          * nothing and has no pulse to end, on either kind of HAL: a reset
          * then finds the machine between events, not in a pulse with no
          * line high: finding M10) */
-        /* the backend ends the pulse: on to the next event in this call */
-        sg->phase = PK_SGP_GAP;
+        /* the backend ends the pulse: on to the next event in this call.
+         * Phase PK_SGP_GAP and pulse_hot (with low_until) matter only if
+         * this call ends before the next event is set up (the chunk's
+         * end): written there, not on every step (pulse_hot was raised
+         * and cleared in the same call) */
         if (mask != 0u) {
             const uint32_t pt = sg->pulse_ticks;
             earliest = now + 2u * pt;
-            sg->low_until = earliest;
-            sg->pulse_hot = 1u;
+            raised = 1u;
             if (SG_STEP_PULSE(hal, mask, (uint8_t)(mask & ~hal->step_invert), pt) != 0) {
+                sg->phase = PK_SGP_GAP;
                 sg->pulse_hot = 0u; /* (no pulse was raised) */
                 return pk_sgi_alarm(sg, PK_ALARM_STEP_WRITE);
             }
@@ -273,6 +277,11 @@ static inline SG_INLINE uint32_t pk_sg_isr_inline(struct pk_stepgen *sg, const s
             earliest = sg->low_until; /* after a wait or a restart */
     }
     if (sg->left == 0u) {
+        sg->phase = PK_SGP_GAP;
+        if (raised) {
+            sg->low_until = earliest;
+            sg->pulse_hot = 1u;
+        }
         sg->earliest = earliest;
         uint32_t r = pk_sgi_chunks(sg, hal, now);
         if (sg->left == 0u)
