@@ -2,9 +2,8 @@
  * pk_motion_step.h — pk_machine_timer_cb (pk_motion.h) as an inline function,
  * pk_machine_timer_cb_inline, for a board whose step-timer interrupt
  * compiles the step path into itself instead of calling the callback
- * (hal/avr: board.mk -DPK_AVR_STEP_INC='"pk_motion_step.h"'
- * -DPK_AVR_STEP_CB=pk_machine_timer_cb -DPK_AVR_STEP_FN=pk_machine_timer_cb_inline,
- * see pk_avr_timer.c). The same code as the callback (pk_sg_step.h); the
+ * (hal/avr: board.mk -DPK_AVR_STEP_INC='"pk_avr_step.h"', see
+ * pk_avr_timer.c). The same code as the callback (pk_sg_step.h); the
  * timer still takes pk_machine_timer_cb (hal.h's contract), and the
  * interrupt runs this inline only for that callback.
  */

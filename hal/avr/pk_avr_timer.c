@@ -66,11 +66,12 @@
 #include "pk_avr_pulse.h"
 #ifdef PK_AVR_STEP_INC
 /* the board compiles the step path into this interrupt (board.mk:
- * PK_AVR_STEP_INC, a header that defines PK_AVR_STEP_FN inline, the same
- * code as the callback PK_AVR_STEP_CB): for that callback, the vector calls
- * nothing on a step event and saves the registers the step path uses once,
- * not once per call frame (the vector's, the callback's, pk_sg_isr's); any
- * other callback is called as usual */
+ * PK_AVR_STEP_INC, pk_avr_step.h, which names the callback PK_AVR_STEP_CB,
+ * its argument PK_AVR_STEP_ARG and PK_AVR_STEP_FN, the same code inline):
+ * for that callback and argument, the vector calls nothing on a step event
+ * and saves the registers the step path uses once, not once per call frame
+ * (the vector's, the callback's, pk_sg_isr's); any other callback is called
+ * as usual */
 #include PK_AVR_STEP_INC
 #endif
 
@@ -144,7 +145,8 @@ ISR(PK_BOARD_STEP_COMP_vect)
 #endif
     sei();
 #ifdef PK_AVR_STEP_FN
-    uint32_t delay = a->cb == PK_AVR_STEP_CB ? PK_AVR_STEP_FN(a->cb_arg, now) : a->cb(a->cb_arg, now);
+    uint32_t delay = a->cb == PK_AVR_STEP_CB && a->cb_arg == (void *)PK_AVR_STEP_ARG ? PK_AVR_STEP_FN(now)
+                                                                                : a->cb(a->cb_arg, now);
 #else
     uint32_t delay = a->cb(a->cb_arg, now);
 #endif
