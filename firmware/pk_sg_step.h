@@ -2,7 +2,7 @@
  * pk_sg_step.h — the step path of the step generator (pk_sg_isr, pk_stepgen.h)
  * as an inline function, pk_sg_isr_inline, for pk_stepgen.c's pk_sg_isr and
  * for a board whose timer interrupt compiles the step path into itself
- * (hal/avr: PK_AVR_STEP_INC, see pk_avr_timer.c). Called through the HAL's
+ * (hal/avr: PK_AVR_STEP_INC, pk_avr_step.h). Called through the HAL's
  * timer callback, a step event pays two call frames of register saves (the
  * vector's and pk_sg_isr's); inline in the vector, the registers it really
  * uses are saved once. The same code either way: the host builds run it

@@ -145,8 +145,10 @@ ISR(PK_BOARD_STEP_COMP_vect)
 #endif
     sei();
 #ifdef PK_AVR_STEP_FN
-    uint32_t delay = a->cb == PK_AVR_STEP_CB && a->cb_arg == (void *)PK_AVR_STEP_ARG ? PK_AVR_STEP_FN(now)
-                                                                                : a->cb(a->cb_arg, now);
+    uint32_t delay = a->cb == PK_AVR_STEP_CB && a->cb_arg == (void *)PK_AVR_STEP_ARG
+                             && PK_AVR_STEP_ARG->hal == PK_AVR_STEP_HAL
+                         ? PK_AVR_STEP_FN(now)
+                         : a->cb(a->cb_arg, now);
 #else
     uint32_t delay = a->cb(a->cb_arg, now);
 #endif

@@ -15,7 +15,7 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # PK_SG_PULSE_FN / PK_SG_PULSE_INC: it compiles the HAL's step pulse into its step
 # path (hal/avr/pk_avr_pulse.h: no ops table, no call).
 # PK_AVR_STEP_INC: the step-timer interrupt compiles the step path into itself
-# (hal/avr/pk_avr_step.h, firmware/pk_motion_step.h) instead of calling
+# (hal/avr/pk_avr_step.h, firmware/pk_sg_step.h) instead of calling
 # pk_machine_timer_cb -> pk_sg_isr, two call frames of register saves
 # (BOARD_SELFTEST_FW: the backend's self test then links the core too).
 # PK_SG_FINE_HZ=4000 (pk_stepgen.h): 2 events per exact step only in blocks
