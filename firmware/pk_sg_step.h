@@ -90,14 +90,13 @@ static inline SG_INLINE uint8_t isr_bresenham(struct pk_stepgen *sg)
 {
     uint8_t mask = 0u;
     const uint8_t b = sg->bres;
-    const int32_t period = (int32_t)sg->period;
     if (b & 1u)
-        SG_BRES_AXIS(sg, 0, period, mask);
+        SG_BRES_AXIS(sg, 0, (int32_t)sg->period, mask);
     if (b & 2u)
-        SG_BRES_AXIS(sg, 1, period, mask);
+        SG_BRES_AXIS(sg, 1, (int32_t)sg->period, mask);
 #if PK_AXES > 2
     if (b & 4u)
-        SG_BRES_AXIS(sg, 2, period, mask);
+        SG_BRES_AXIS(sg, 2, (int32_t)sg->period, mask);
 #endif
     return mask;
 }

@@ -28,7 +28,7 @@ extern struct pk_app app __attribute__((weak));
 #define PK_AVR_STEP_CB pk_machine_timer_cb
 #define PK_AVR_STEP_ARG (&app.m)
 /** [ISR] The callback's body, for PK_AVR_STEP_ARG driving the backend
- *  instance's HAL (PK_AVR_STEP_HAL: checked with the callback). */
+ *  instance's HAL (PK_AVR_STEP_HAL: timer_start checks all three). */
 #define PK_AVR_STEP_HAL (&pk_avr_board.hal)
 #define PK_AVR_STEP_FN(now) pk_sg_isr_inline(&PK_AVR_STEP_ARG->sg, PK_AVR_STEP_HAL, (now))
 

@@ -145,10 +145,7 @@ ISR(PK_BOARD_STEP_COMP_vect)
 #endif
     sei();
 #ifdef PK_AVR_STEP_FN
-    uint32_t delay = a->cb == PK_AVR_STEP_CB && a->cb_arg == (void *)PK_AVR_STEP_ARG
-                             && PK_AVR_STEP_ARG->hal == PK_AVR_STEP_HAL
-                         ? PK_AVR_STEP_FN(now)
-                         : a->cb(a->cb_arg, now);
+    uint32_t delay = a->cb_inline ? PK_AVR_STEP_FN(now) : a->cb(a->cb_arg, now);
 #else
     uint32_t delay = a->cb(a->cb_arg, now);
 #endif
@@ -212,6 +209,7 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
 void pk_avr_timer_init(struct pk_avr *a)
 {
     a->cb = NULL;
+    a->cb_inline = 0u;
     a->armed = 0u;
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
@@ -239,6 +237,11 @@ int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_
     cli();
     a->cb = cb;
     a->cb_arg = arg;
+#ifdef PK_AVR_STEP_FN
+    /* the step path inline only for exactly the callback, argument and HAL
+     * it is compiled for (pk_avr_step.h); decided here, not per event */
+    a->cb_inline = cb == PK_AVR_STEP_CB && arg == (void *)PK_AVR_STEP_ARG && PK_AVR_STEP_ARG->hal == PK_AVR_STEP_HAL;
+#endif
     a->armed = 1u;
     uint64_t now64 = pk_avr_clock_ticks(ctx);
     /* first_tick in the past, or further than 2^31 ticks: at once / capped */
