@@ -258,7 +258,7 @@ def max_rate(board, tmp):
     print('\n%s: sustained step rate, one X move (80 steps/mm, $120=50000, G61)' % board)
     print('  %10s %10s %10s %14s %10s' % ('steps/s', 'underruns', 'chip/plan', 'longest ISR', 'sustained'))
     best, worst_fail = None, None
-    for rate in (250, 500, 1000, 2000, 4000, 8000, 16000, 30000):
+    for rate in (250, 500, 1000, 2000, 4000, 8000, 16000, 20000, 25000, 30000):
         r, err = trial(rate)
         if r is None:
             impossible.append('%s, step rate %d: %s' % (board, rate, err))
