@@ -201,7 +201,9 @@ static inline SG_INLINE uint32_t isr_schedule(struct pk_stepgen *sg, uint32_t no
     const int32_t I = sg->I;
     const uint16_t I_lo = (uint16_t)I;
     uint16_t nf = (uint16_t)(sg->next_f + I_lo);
-    uint32_t nt = sg->next_t + (uint32_t)(I >> 16) + (nf < I_lo ? 1u : 0u);
+    uint32_t nt = sg->next_t + (uint32_t)(I >> 16);
+    if (nf < I_lo)
+        nt++; /* the fraction's carry */
     sg->I = I + sg->A;
     sg->left--;
     /* Late by more than the interval itself (the timer callback was held
