@@ -220,7 +220,9 @@ static inline SG_INLINE uint32_t isr_schedule(struct pk_stepgen *sg, uint32_t no
     }
     sg->next_t = nt;
     sg->next_f = nf;
-    uint32_t at = nt + (uint32_t)(nf >> 15);
+    uint32_t at = nt;
+    if (nf & 0x8000u)
+        at++; /* rounded to the nearest tick */
     if ((int32_t)(at - earliest) < 0)
         at = earliest;
     const int32_t dl = (int32_t)(at - now);
