@@ -209,7 +209,9 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
 void pk_avr_timer_init(struct pk_avr *a)
 {
     a->cb = NULL;
+#ifdef PK_AVR_STEP_FN
     a->cb_inline = 0u;
+#endif
     a->armed = 0u;
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
