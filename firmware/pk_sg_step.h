@@ -231,7 +231,7 @@ static inline SG_INLINE uint32_t isr_schedule(struct pk_stepgen *sg, uint32_t no
 
 static inline SG_INLINE uint32_t pk_sg_isr_inline(struct pk_stepgen *sg, const struct pk_hal *hal, uint32_t now)
 {
-    if ((sg->alarm | (uint8_t)sg->restart) != 0u) {
+    if ((uint8_t)(sg->alarm | (uint8_t)sg->restart) != 0u) {
         if (sg->alarm != 0)
             return pk_sgi_alarm(sg, sg->alarm);
         pk_sgi_restart(sg, hal, now);
