@@ -199,8 +199,11 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
     row = lambda k, v: print('  %-52s %12s' % (k, v))
     row('step ISR cycles per step (mean, all its calls)', '%.0f' % (st['cycles'] / steps))
     row('longest step ISR (cycles, nested serial excluded)', '%d' % st['max'])
-    row('pk_machine_timer_cb per call: mean / worst cycles', '%.0f / %d' % (cb[1] / max(cb[0], 1), cb[2]))
-    row('  callbacks per step', '%.2f' % (cb[0] / steps))
+    if cb[0]:
+        row('pk_machine_timer_cb per call: mean / worst cycles', '%.0f / %d' % (cb[1] / cb[0], cb[2]))
+        row('  callbacks per step', '%.2f' % (cb[0] / steps))
+    else:
+        row('pk_machine_timer_cb per call', 'inline in ISR')
     row('pk_sg_prep cycles per chunk / calls per chunk', '%.0f / %.1f' % (prep[1] / chunks, prep[0] / chunks)
         if chunks else 'n/a')
     row('pk_planner_add_line cycles per call', '%.0f' % (add[1] / max(add[0], 1)))
@@ -230,9 +233,14 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
         print('  where the step ISR cycles go (flat profile, %% of %d cycles):' % tot)
         for k, v in sorted(prof.items(), key=lambda kv: -kv[1])[:12]:
             if k.startswith('__vector_'):
-                k += ' (HAL: the ISR with service() inlined)'
+                k += ' (HAL: the step-timer ISR, with what it inlines)'
             print('    %5.1f%%  %-46s %8.0f cycles/step' % (100.0 * v / tot, k, v / steps))
-        line_profile(elf, histf, syms, 'pk_sg_isr', steps)
+        # by source line: the function that holds the step path (pk_sg_isr,
+        # or the vector itself on a board that compiles it in)
+        hot = max((k for k in prof if k == 'pk_sg_isr' or k.startswith('__vector_')), key=lambda k: prof[k],
+                  default=None)
+        if hot is not None:
+            line_profile(elf, histf, syms, hot, steps, top=int(os.environ.get('PK_BENCH_LINES', '10')))
     return d
 
 
@@ -255,7 +263,7 @@ def max_rate(board, tmp):
     print('\n%s: sustained step rate, one X move (80 steps/mm, $120=50000, G61)' % board)
     print('  %10s %10s %10s %14s %10s' % ('steps/s', 'underruns', 'chip/plan', 'longest ISR', 'sustained'))
     best, worst_fail = None, None
-    for rate in (250, 500, 1000, 2000, 4000, 8000, 16000, 30000):
+    for rate in (250, 500, 1000, 2000, 4000, 8000, 16000, 20000, 25000, 30000):
         r, err = trial(rate)
         if r is None:
             impossible.append('%s, step rate %d: %s' % (board, rate, err))

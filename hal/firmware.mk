@@ -13,7 +13,7 @@
 #   BOARD_ARCH BOARD_MCU|BOARD_CPU BOARD_F_CPU BOARD_SRC BOARD_DEFS
 #   BOARD_FLASH_MAX BOARD_RAM_MAX BOARD_STEP_ISR BOARD_STATICS [BOARD_CFLAGS]
 #   [BOARD_HOST_DEFS] [BOARD_LDSCRIPT] [BOARD_LTO]
-#   [BOARD_COLD_CFLAGS] [BOARD_HOT_SRC]
+#   [BOARD_COLD_CFLAGS] [BOARD_HOT_SRC] [BOARD_SELFTEST_FW]
 # Every image's objects, firmware and board alike, pass tests/targets/fwcheck.py
 # (no heap, stdio, float; no software divide on the step path, followed from
 # the board's step-timer interrupt handler BOARD_STEP_ISR as well as from the
@@ -27,6 +27,10 @@
 # BOARD_COLD_CFLAGS (e.g. -fno-inline) apply to every source but those in
 # BOARD_HOT_SRC (the step path and the interrupt handlers, which keep the
 # speed of the plain flags).
+# BOARD_SELFTEST_FW = 1: the backend's objects refer to the core's (a step
+# interrupt that compiles the step path into itself, hal/avr's
+# PK_AVR_STEP_INC), so the backend self test (tests/avr/hal_selftest.c) links
+# the core's objects too (--gc-sections keeps only what is referenced).
 # BOARD_SRC is the board's one source list (backend files + hal/pk_app.c +
 # hal/pk_uart.c); every firmware/*.c is compiled with the board's knobs and
 # linked with --gc-sections, so only what the image uses stays in it.
@@ -63,6 +67,7 @@ BOARD_LDFLAGS :=
 BOARD_LTO := 0
 BOARD_COLD_CFLAGS :=
 BOARD_HOT_SRC :=
+BOARD_SELFTEST_FW := 0
 BOARD_STEP_ISR :=
 BOARD_STATICS :=
 include $(1)/board.mk
@@ -88,6 +93,7 @@ FWB_$(2)_CHECK := $$(foreach f,$$(TARGETS_STEP_FUNCS) $$(BOARD_STEP_ISR),--step-
                   $$(foreach x,$$(BOARD_STATICS),--allow-static $$(x)) \
                   --target $(2):$$(FW_BIN_$$(BOARD_ARCH)):no
 FWB_$(2)_OBJ := $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$(TGT_FW_SRC) $$(BOARD_SRC))
+FWB_$(2)_SELFTEST_FW := $$(if $$(filter 1,$$(BOARD_SELFTEST_FW)),$$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$(TGT_FW_SRC)))
 
 $(FW_DIR)/$(2)/obj/firmware/%.o: firmware/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
@@ -122,7 +128,8 @@ $(FW_DIR)/$(2)/obj/tests/avr/%.o: tests/avr/%.c $(1)/board.mk hal/firmware.mk
 	@mkdir -p $$(@D)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_CPPFLAGS) $$(FW_WARN) $$(FW_OPT) $$(FWB_$(2)_MFLAGS) -MMD -MP -c $$< -o $$@
 $(FW_DIR)/$(2)/hal_selftest.hex: $(FW_DIR)/$(2)/obj/tests/avr/hal_selftest.o \
-    $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(filter-out %_main.c hal/pk_app.c,$$(BOARD_SRC)))
+    $$(patsubst %.c,$(FW_DIR)/$(2)/obj/%.o,$$(filter-out %_main.c hal/pk_app.c,$$(BOARD_SRC))) \
+    $$(FWB_$(2)_SELFTEST_FW)
 	$$(FWB_$(2)_CC) $$(FWB_$(2)_MFLAGS) $$(FW_OPT) -Wl,--gc-sections -o $$(@:.hex=.elf) $$^
 	$$(FWB_$(2)_BIN)objcopy -O ihex -R .eeprom $$(@:.hex=.elf) $$@
 $(FW_DIR)/$(2)/obj/fw_structs.o: tests/targets/fw_structs.c $(1)/board.mk hal/firmware.mk

@@ -48,6 +48,10 @@ struct pk_avr {
     volatile uint16_t ovf_lo;     /**< timer overflows: clock bits 16..31 ... (the */
     volatile uint16_t ovf_hi;     /**< ... and 32..47; overflow ISR writes, read with ISR off) */
     volatile uint8_t armed;       /**< compare interrupt enabled */
+#ifdef PK_AVR_STEP_INC
+    uint8_t cb_inline;            /**< cb is the one the step interrupt runs inline
+                                       (pk_avr_step.h; timer_start decides) */
+#endif
     /* step pulse (compare B) */
     uint16_t pulse_end;           /**< TCNT at which the pulse ends */
     uint8_t pulse_mask;           /**< its step lines (axis bits) ... */

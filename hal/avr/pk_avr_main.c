@@ -15,7 +15,9 @@
 #include "pk_app.h"
 #include "pk_avr.h"
 
-static struct pk_app app;
+/* (external: a board whose step interrupt runs the step path inline reaches
+ * the machine at its fixed address, pk_avr_step.h) */
+struct pk_app app;
 
 static const char init_failed[] PROGMEM =
     "[MSG:plotkin: the machine refused its default settings or the HAL]\n";

@@ -14,7 +14,9 @@
  *     next beyond the counter's range that matched at an earlier wrap)?
  *         write its low 16 bits to OCRA, read TCNT again: still before it
  *         -> done (the compare will fire); passed meanwhile -> it is due now
- *     wait until now >= next, delay = cb(arg, now) with interrupts on;
+ *     wait until now >= next, delay = cb(arg, now) with interrupts on
+ *     (a board with PK_AVR_STEP_INC: the step path compiled in here when cb
+ *     is its PK_AVR_STEP_CB, no call);
  *     STOP -> stop; next = now + delay, OCRA = its low 16 bits (16-bit
  *     arithmetic: delay < 2^15 nearly always, no second clock read);
  *     more than LEAD ticks left on TCNT (or delay >= 2^15) -> done;
@@ -62,6 +64,16 @@
 #include <avr/io.h>
 #include "board.h"
 #include "pk_avr_pulse.h"
+#ifdef PK_AVR_STEP_INC
+/* the board compiles the step path into this interrupt (board.mk:
+ * PK_AVR_STEP_INC, pk_avr_step.h, which names the callback PK_AVR_STEP_CB,
+ * its argument PK_AVR_STEP_ARG and PK_AVR_STEP_FN, the same code inline):
+ * for that callback and argument, the vector calls nothing on a step event
+ * and saves the registers the step path uses once, not once per call frame
+ * (the vector's, the callback's, pk_sg_isr's); any other callback is called
+ * as usual */
+#include PK_AVR_STEP_INC
+#endif
 
 /** An event due when the interrupt's callback returns is armed this many
  *  ticks ahead (more than the few ticks between reading the clock and writing OCRA, or
@@ -132,7 +144,11 @@ ISR(PK_BOARD_STEP_COMP_vect)
     a->in_step = 1u; /* an input edge meanwhile waits (pk_avr_inputs.c) */
 #endif
     sei();
+#ifdef PK_AVR_STEP_FN
+    uint32_t delay = a->cb_inline ? PK_AVR_STEP_FN(now) : a->cb(a->cb_arg, now);
+#else
     uint32_t delay = a->cb(a->cb_arg, now);
+#endif
     cli();
 #ifdef PK_BOARD_INPUTS
     a->in_step = 0u;
@@ -193,6 +209,9 @@ int pk_avr_step_pulse(void *ctx, uint32_t mask, uint32_t levels, uint32_t width_
 void pk_avr_timer_init(struct pk_avr *a)
 {
     a->cb = NULL;
+#ifdef PK_AVR_STEP_FN
+    a->cb_inline = 0u;
+#endif
     a->armed = 0u;
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
@@ -220,6 +239,11 @@ int pk_avr_timer_start(void *ctx, pk_hal_timer_cb cb, void *arg, uint64_t first_
     cli();
     a->cb = cb;
     a->cb_arg = arg;
+#ifdef PK_AVR_STEP_FN
+    /* the step path inline only for exactly the callback, argument and HAL
+     * it is compiled for (pk_avr_step.h); decided here, not per event */
+    a->cb_inline = cb == PK_AVR_STEP_CB && arg == (void *)PK_AVR_STEP_ARG && PK_AVR_STEP_ARG->hal == PK_AVR_STEP_HAL;
+#endif
     a->armed = 1u;
     uint64_t now64 = pk_avr_clock_ticks(ctx);
     /* first_tick in the past, or further than 2^31 ticks: at once / capped */

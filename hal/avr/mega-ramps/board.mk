@@ -14,6 +14,10 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # step generator keeps its own pulse-ending path out of the step interrupt;
 # PK_SG_PULSE_FN / PK_SG_PULSE_INC: it compiles the HAL's step pulse into its step
 # path (hal/avr/pk_avr_pulse.h: no ops table, no call).
+# PK_AVR_STEP_INC: the step-timer interrupt compiles the step path into itself
+# (hal/avr/pk_avr_step.h, firmware/pk_sg_step.h) instead of calling
+# pk_machine_timer_cb -> pk_sg_isr, two call frames of register saves
+# (BOARD_SELFTEST_FW: the backend's self test then links the core too).
 # PK_SG_FINE_HZ=4000 (pk_stepgen.h): 2 events per exact step only in blocks
 # whose dominant axis steps at most 4 kHz, where a one-event lag is a
 # large part of an interval; faster blocks keep one event per step (their
@@ -32,10 +36,11 @@ BOARD_SRC   := hal/avr/pk_avr_main.c hal/avr/pk_avr_hal.c hal/avr/pk_avr_timer.c
 # 8,000 steps/s, found in the pin trace; `make bench-avr` counts them). 16:
 # 8 times. RAM: 304 B (7,005 of 8,192 B with the deepest stack); a feed
 # hold starts within 16 segments (64 ms at speed; Grbl: 6 of up to 10 ms).
-BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8_inline -DPK_SG_PULSE_INC='"pk_avr_pulse.h"' -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=16 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4 \
+BOARD_DEFS  := -DPK_SG_HW_PULSE=1 -DPK_SG_PULSE_FN=pk_avr_step_pulse8_inline -DPK_SG_PULSE_INC='"pk_avr_pulse.h"' -DPK_AVR_STEP_INC='"pk_avr_step.h"' -DPK_SG_FINE_HZ=4000 -DPK_SG_SEG_HZ=250u -DPK_AXES=3 -DPK_MQ_CAP=16 -DPK_SG_CHUNKS=16 -DPK_UART_TX_SIZE=64 -DPK_BUILD_LIMIT=0 -DPK_MAX_DEPTH=6 -DPK_WIN=4 \
                -DPK_GRBL_INPUTS=1
 # The host comparator (`plotkin sim` with this build's knobs) has no AVR HAL.
-BOARD_HOST_DEFS := -UPK_SG_PULSE_FN -UPK_SG_PULSE_INC
+BOARD_SELFTEST_FW := 1
+BOARD_HOST_DEFS := -UPK_SG_PULSE_FN -UPK_SG_PULSE_INC -UPK_AVR_STEP_INC
 # PK_GRBL_INPUTS=1: limit switches (hard limits, \$H homing) and the probe
 # (G38.x) on the RAMPS end stops (board.h), edges on INTn / pin change.
 # ATmega2560 with the stock STK500v2 bootloader (8 KB): 262,144 - 8,192 B of
