@@ -1120,6 +1120,9 @@ void pk_machine_poll(struct pk_machine *m)
     start_steps(m);
 }
 
+/* Nothing but the step generator's callback: the AVR boards run this very
+ * body inline in their step interrupt (hal/avr/pk_avr_step.h), so anything
+ * added here must be added there too. */
 uint32_t pk_machine_timer_cb(void *arg, uint32_t now_ticks)
 {
     struct pk_machine *m = arg;
