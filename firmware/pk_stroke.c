@@ -80,6 +80,26 @@
  * out of E. The step generator adds at most half a step per axis (its
  * Bresenham starts from the exact fractional position, pk_motion.c).
  *
+ * Straight runs. A leg whose two vertices are both kept sharp (doubled) is
+ * straight, and the refined path passes through both ends exactly: the kernel
+ * would only cut the segment into 2^depth collinear points for the decimator
+ * to merge back into one chord (dense SVG and CAM polylines are mostly such
+ * legs: 4,397 of the 4,684 of bench-avr's dense drawing, where this work was
+ * half of the 8-bit board's main loop). So at such a leg the kernel stroke is
+ * finished at the first vertex and the run's vertices are emitted as they
+ * come (each a corner), until a leg with a blend restarts the kernel at the
+ * run's last vertex, doubled, as a stroke begins. A doubled control point
+ * separates the Chaikin curve into independent parts at every level (the
+ * pair V, V refines to V, V), and a clamped end at a doubled point refines
+ * the same, so the points and chords are those the kernel and the decimator
+ * would have produced, given that the refined points of the segment are
+ * within the decimator's tolerance of it and move away from its start: they
+ * are within sqrt(2)/2 µm of the segment after rounding, so runs are taken
+ * only at T >= PK_STROKE_RUN_MIN_TOL_UM (T/4 >= 2 µm), on legs of at least
+ * PK_STROKE_RUN_MIN_LEG_UM (refined points 2 µm or more apart), in the XY
+ * plane (the decimator keeps every point of a leg out of it). The observer
+ * sees the same control points either way.
+ *
  * Z: the blends are built in 3-D (the corner's plane). The decimator works in
  * XY and ends a chord wherever Z changes, so 3-D curves are executed point by
  * point (correct, more segments).
@@ -364,11 +384,42 @@ static void queue_vertex(struct pk_stroke *st, bool twice)
         queue_pt_f(st, st->v[1], true);
 }
 
+/* Straight runs (see the essay): the tolerance and leg length from which the
+ * kernel's points of a straight leg are all merged by the decimator. */
+#define PK_STROKE_RUN_MIN_TOL_UM 8
+#define PK_STROKE_RUN_MIN_LEG_UM ((uint32_t)2 << PK_STROKE_TOL_DEPTH)
+
+/* Is leg v[0] -> v[1] (caps decided) straight between two sharp vertices,
+ * long enough and in the XY plane, so that it can go out without the kernel? */
+static bool run_leg(const struct pk_stroke *st)
+{
+    if (st->cap[0] != 0 || st->cap[1] != 0 || st->tol_um < PK_STROKE_RUN_MIN_TOL_UM)
+        return false;
+    int32_t d[PK_AXES];
+    diff(st->v[0], st->v[1], d);
+    for (unsigned i = 2; i < st->axes && i < PK_AXES; i++)
+        if (d[i] != 0)
+            return false;
+    /* |d| >= MIN in the plane: compare squares (|d| < 2^23, squares < 2^47) */
+    uint64_t ss = (uint64_t)((int64_t)d[0] * d[0]) + (uint64_t)((int64_t)d[1] * d[1]);
+    return ss >= (uint64_t)PK_STROKE_RUN_MIN_LEG_UM * PK_STROKE_RUN_MIN_LEG_UM;
+}
+
 /* With v[0..2] held: decide v[1]'s cap, queue leg 0 and v[1], shift. */
 static void advance(struct pk_stroke *st)
 {
     pk_um_t err = st->err_in[1] > st->err_in[2] ? st->err_in[1] : st->err_in[2];
     st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
+    if (run_leg(st)) {
+        if (st->by == 0) {
+            /* the kernel has every point up to v[0] (doubled): it ends there */
+            pk_refine_finish(&st->k);
+            st->by = 1;
+        }
+        st->by_restart = false;
+    } else if (st->by != 0) {
+        st->by_restart = true; /* a blend again: the kernel restarts at v[0] */
+    }
     queue_leg(st);
     queue_vertex(st, st->cap[1] == 0);
     memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
@@ -382,6 +433,12 @@ static void advance_last(struct pk_stroke *st)
 {
     if (st->nv == 2) {
         st->cap[1] = 0;
+        if (st->by != 0 && !run_leg(st))
+            st->by_restart = true;
+        else if (st->by == 0 && run_leg(st)) {
+            pk_refine_finish(&st->k);
+            st->by = 1;
+        }
         queue_leg(st);
         queue_vertex(st, true);
         memcpy(st->v[0], st->v[1], sizeof st->v[0]);
@@ -395,7 +452,24 @@ static void observe(struct pk_stroke *st, uint8_t ev, const pk_um_t p[PK_AXES])
         st->observe(st->observe_ctx, ev, p);
 }
 
+static void kernel_start_q(struct pk_stroke *st, const pk_um_t start[PK_AXES], bool quiet);
 static void kernel_start(struct pk_stroke *st, const pk_um_t start[PK_AXES])
+{
+    kernel_start_q(st, start, false);
+}
+
+/* A straight run has ended (see the essay): the kernel starts again at its
+ * last vertex (the anchor, emitted), doubled as at a stroke's start. The
+ * observer saw these control points already: nothing to tell it. */
+static void kernel_restart(struct pk_stroke *st)
+{
+    kernel_start_q(st, st->anchor, true);
+    (void)pk_refine_push(&st->k, st->anchor); /* (a kernel just set up has room) */
+    st->by = 0;
+    st->by_restart = false;
+}
+
+static void kernel_start_q(struct pk_stroke *st, const pk_um_t start[PK_AXES], bool quiet)
 {
     struct pk_refine_cfg c;
     struct pk_smooth_cfg s;
@@ -407,7 +481,8 @@ static void kernel_start(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     kernel_cfg(&s, st->axes, &c);
     (void)pk_refine_init(&st->k, &c); /* the policy passed pk_stroke_check */
     (void)pk_refine_push(&st->k, start);
-    observe(st, PK_STROKE_EV_BEGIN, start);
+    if (!quiet)
+        observe(st, PK_STROKE_EV_BEGIN, start);
     st->kernel_end = false;
 }
 
@@ -428,6 +503,8 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     st->nq = 0;
     st->q_head = 0;
     st->ncorner = 0;
+    st->by = 0;
+    st->by_restart = false;
     memcpy(st->prev, start, sizeof st->prev);
     if (st->mode == PK_SMOOTH_OFF)
         return 0;
@@ -696,6 +773,8 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->nq = 0;
     st->nv = 0;
     st->ncorner = 0;
+    st->by = 0;
+    st->by_restart = false;
     st->have_cand = false;
 }
 
@@ -722,6 +801,8 @@ static int feed_kernel(struct pk_stroke *st)
     if (st->mode == PK_SMOOTH_TOLERANCE) {
         if (st->nq == 0 && st->finishing && st->nv > 1)
             advance_last(st);
+        if (st->by != 0)
+            return PK_OK; /* the kernel was finished at a straight run: it drains */
         if (st->nq > 0) {
             const pk_um_t *p = st->q[st->q_head];
             int r = pk_refine_push(&st->k, p);
@@ -769,6 +850,39 @@ static int feed_kernel(struct pk_stroke *st)
     return PK_NEED_INPUT;
 }
 
+/* A straight run (by == 2): the queued vertices go out without the kernel,
+ * each where the decimator would have ended a chord at it (its corner copy);
+ * the run ends at a leg with a blend (the kernel restarts) or with the stroke.
+ * PK_OK to go on, PK_NEED_INPUT for more vertices. */
+static int run_feed(struct pk_stroke *st)
+{
+    if (st->nq == 0 && st->finishing && st->nv > 1)
+        advance_last(st);
+    if (st->nq > 0 && st->by_restart) {
+        kernel_restart(st);
+        return PK_OK;
+    }
+    if (st->nq > 0) {
+        const pk_um_t *p = st->q[st->q_head];
+        const bool corner = (st->q_corner & (1u << st->q_head)) != 0u;
+        observe(st, PK_STROKE_EV_CTRL, p);
+        if (corner) {
+            emit_f(st, p, true);
+            memcpy(st->anchor, p, sizeof st->anchor);
+            st->have_cand = false;
+        }
+        st->q_head = (uint8_t)((st->q_head + 1u) % 4u);
+        st->nq--;
+        return PK_OK;
+    }
+    if (st->finishing) {
+        observe(st, PK_STROKE_EV_END, st->v[0]);
+        st->kernel_end = true;
+        return PK_OK;
+    }
+    return PK_NEED_INPUT;
+}
+
 int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
 {
     unsigned refined = 0;
@@ -789,6 +903,11 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
             st->open = false;
             return PK_END;
         }
+        if (st->by == 2) {
+            if (run_feed(st) == PK_OK)
+                continue;
+            return PK_NEED_INPUT;
+        }
         struct pk_refine_out o;
         int r = pk_refine_pull(&st->k, &o);
         if (r == PK_OK) {
@@ -806,6 +925,17 @@ int pk_stroke_pull(struct pk_stroke *st, pk_um_t out[PK_AXES])
                 return fr;
             }
             return PK_NEED_INPUT;
+        }
+        if (r == PK_END && st->by == 1) {
+            /* the kernel ended at a straight run's first vertex (emitted as
+             * the corner it is): the run goes on without it */
+            if (st->have_cand) {
+                emit_f(st, st->cand, true);
+                memcpy(st->anchor, st->cand, sizeof st->anchor);
+                st->have_cand = false;
+            }
+            st->by = 2;
+            continue;
         }
         if (r == PK_END) {
 #if PK_STROKE_FIXED

@@ -108,6 +108,12 @@ struct pk_stroke {
     uint8_t q_corner;          /**< bit i: q[i] is the second copy of a corner kept sharp */
     uint8_t ncorner;           /**< vertices kept sharp, not yet out of the kernel */
     pk_um_t corner[3][PK_AXES];
+    uint8_t by;                /**< straight run between sharp vertices (pk_stroke.c
+                                    "Straight runs"): 0 the kernel runs, 1 it is
+                                    finishing at the run's first vertex, 2 the run's
+                                    vertices go out without it */
+    bool by_restart;           /**< by == 2: restart the kernel at the anchor before
+                                    the queued points (the run has ended) */
 
     /* ---- cone decimator (XY; a change of Z ends a chord) ---- */
     bool have_anchor, have_cand, cone_full, cone_empty;
