@@ -386,6 +386,9 @@ static void queue_vertex(struct pk_stroke *st, bool twice)
 
 /* Straight runs (see the essay): the tolerance and leg length from which the
  * kernel's points of a straight leg are all merged by the decimator. */
+#ifndef PK_STROKE_RUNS
+#define PK_STROKE_RUNS 1 /* 0: every leg through the kernel (tests/test_stroke_runs.c) */
+#endif
 #define PK_STROKE_RUN_MIN_TOL_UM 8
 #define PK_STROKE_RUN_MIN_LEG_UM ((uint32_t)2 << PK_STROKE_TOL_DEPTH)
 
@@ -393,7 +396,7 @@ static void queue_vertex(struct pk_stroke *st, bool twice)
  * long enough and in the XY plane, so that it can go out without the kernel? */
 static bool run_leg(const struct pk_stroke *st)
 {
-    if (st->cap[0] != 0 || st->cap[1] != 0 || st->tol_um < PK_STROKE_RUN_MIN_TOL_UM)
+    if (!PK_STROKE_RUNS || st->cap[0] != 0 || st->cap[1] != 0 || st->tol_um < PK_STROKE_RUN_MIN_TOL_UM)
         return false;
     int32_t d[PK_AXES];
     diff(st->v[0], st->v[1], d);
@@ -464,9 +467,9 @@ static void kernel_start(struct pk_stroke *st, const pk_um_t start[PK_AXES])
 static void kernel_restart(struct pk_stroke *st)
 {
     kernel_start_q(st, st->anchor, true);
-    (void)pk_refine_push(&st->k, st->anchor); /* (a kernel just set up has room) */
     st->by = 0;
     st->by_restart = false;
+    st->by_again = true; /* the second copy, once the kernel takes it (feed_kernel) */
 }
 
 static void kernel_start_q(struct pk_stroke *st, const pk_um_t start[PK_AXES], bool quiet)
@@ -505,6 +508,7 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
     st->ncorner = 0;
     st->by = 0;
     st->by_restart = false;
+    st->by_again = false;
     memcpy(st->prev, start, sizeof st->prev);
     if (st->mode == PK_SMOOTH_OFF)
         return 0;
@@ -775,6 +779,7 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->ncorner = 0;
     st->by = 0;
     st->by_restart = false;
+    st->by_again = false;
     st->have_cand = false;
 }
 
@@ -803,6 +808,12 @@ static int feed_kernel(struct pk_stroke *st)
             advance_last(st);
         if (st->by != 0)
             return PK_OK; /* the kernel was finished at a straight run: it drains */
+        if (st->by_again) {
+            int r = pk_refine_push(&st->k, st->anchor);
+            if (r == PK_OK)
+                st->by_again = false;
+            return r == PK_OK ? PK_OK : r == PK_EBUSY ? PK_NEED_INPUT : r;
+        }
         if (st->nq > 0) {
             const pk_um_t *p = st->q[st->q_head];
             int r = pk_refine_push(&st->k, p);

@@ -114,6 +114,8 @@ struct pk_stroke {
                                     vertices go out without it */
     bool by_restart;           /**< by == 2: restart the kernel at the anchor before
                                     the queued points (the run has ended) */
+    bool by_again;             /**< restarted: the anchor's second copy is still to
+                                    be pushed (the kernel takes one point at a time) */
 
     /* ---- cone decimator (XY; a change of Z ends a chord) ---- */
     bool have_anchor, have_cand, cone_full, cone_empty;
