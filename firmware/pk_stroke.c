@@ -267,6 +267,14 @@ static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
     return kink + kink / 4u < blend;
 }
 
+/* d 2^38 / r truncated towards zero, as the 64-bit division gave (|d| << 8
+ * <= r < 2^31: pk_frac_q30 of |d| << 8, the sign put back). */
+static int32_t unit_q30(int32_t d, uint32_t r_q8)
+{
+    const int32_t u = (int32_t)pk_frac_q30((uint32_t)(d < 0 ? -d : d) << 8, r_q8);
+    return d < 0 ? -u : u;
+}
+
 /** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
  *  0 (keep sharp) for a turn beyond the threshold, a reversal or no budget. */
 #define CAP_INF ((uint32_t)1 << 30)
@@ -281,11 +289,12 @@ static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
     if (l1 == 0 || l2 == 0)
         return 0;
     /* unit vectors, Q30: |d[i]| << 8 <= l (l = floor(256 |d|)), so |u[i]| <= 2^30;
-     * |d| << 38 < 2^61 */
+     * l < 256 sqrt(3) 2^22 < 2^31 (|d[i]| < 2 PK_UM_MAX): unit_q30's ratio,
+     * the 64-bit quotient d 2^38 / l (a 32-bit division on 8-bit cores) */
     pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
     for (unsigned i = 0; i < n; i++) {
-        u1[i] = pk_ratio_i32(d1[i], 38, l1);
-        u2[i] = pk_ratio_i32(d2[i], 38, l2);
+        u1[i] = unit_q30(d1[i], l1);
+        u2[i] = unit_q30(d2[i], l2);
     }
     /* |u| <= 2^30 (1 + 2^-12): the dot product and the cross products, Q30
      * after the shift, fit 32 bits */
@@ -635,13 +644,6 @@ static int cross2(const int32_t a[2], int32_t bx, int32_t by)
     return c > 0 ? 1 : c < 0 ? -1 : 0;
 }
 
-/* d 2^38 / r truncated towards zero, as the 64-bit division gave (|d| << 8
- * <= r < 2^31: pk_frac_q30 of |d| << 8, the sign put back). */
-static int32_t unit_q30(int32_t d, uint32_t r_q8)
-{
-    const int32_t u = (int32_t)pk_frac_q30((uint32_t)(d < 0 ? -d : d) << 8, r_q8);
-    return d < 0 ? -u : u;
-}
 
 /* The two directions from the anchor tangent to the disc of radius tol around
  * a point at d (|d| = r > tol), Q1.30, clockwise one first. */
