@@ -149,14 +149,21 @@ int PK_SG_PULSE_FN(void *ctx, uint8_t mask, uint8_t levels, uint16_t width_ticks
 #define SG_STEP_PULSE(hal, mask, levels, w) (hal)->ops->step_pulse((hal)->ctx, (mask), (levels), (w))
 #endif
 
+/* The core's own pulse paths, for a HAL without step_pulse. Written once,
+ * here: inline on the step path of such a build (the host's); in a build
+ * whose HAL has step_pulse (PK_SG_HW_PULSE=1, the AVR boards) they are rare
+ * (a table without step_pulse) and kept out of line, off the step path's
+ * registers: defined only in pk_stepgen.c (PK_SG_PULSE_BODIES), declared for
+ * the other units. */
 #if PK_SG_HW_PULSE
-/* A HAL with step_pulse (PK_SG_HW_PULSE=1, the AVR boards): the core's own
- * pulse paths are rare (a table without step_pulse), out of line in
- * pk_stepgen.c, off the step path's registers. */
+#define SG_PULSE_LOW SG_NOINLINE
 uint32_t pk_sgi_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal);
 uint32_t pk_sgi_step_sw(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t mask);
 #else
 #define SG_PULSE_LOW static inline SG_INLINE
+#endif
+
+#if !PK_SG_HW_PULSE || defined(PK_SG_PULSE_BODIES)
 /* The end of a pulse the core times itself (no step_pulse): lower the lines.
  * 0 to go on, else what the callback returns. */
 SG_PULSE_LOW uint32_t pk_sgi_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal)
@@ -177,9 +184,7 @@ SG_PULSE_LOW uint32_t pk_sgi_pulse_low(struct pk_stepgen *sg, const struct pk_ha
 }
 
 /* A step event on a HAL without step_pulse: the core raises the lines and
- * lowers them itself, pulse_ticks later (one more call). Inline for such a
- * HAL (the host's); out of line in a build whose HAL has step_pulse
- * (PK_SG_HW_PULSE=1), which keeps its registers off the step path. */
+ * lowers them itself, pulse_ticks later (one more call). */
 SG_PULSE_LOW uint32_t pk_sgi_step_sw(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t mask)
 {
     if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
@@ -188,7 +193,6 @@ SG_PULSE_LOW uint32_t pk_sgi_step_sw(struct pk_stepgen *sg, const struct pk_hal 
     sg->phase = PK_SGP_PULSE;
     return sg->pulse_ticks;
 }
-
 #endif
 
 /* The next event of the chunk running (left > 0): its tick from the

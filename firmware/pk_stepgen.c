@@ -30,6 +30,7 @@
 #include <string.h>
 #include "pk_stepgen.h"
 #include "pk_motion.h"
+#define PK_SG_PULSE_BODIES /* the out-of-line pulse paths of a PK_SG_HW_PULSE build */
 #include "pk_sg_step.h"
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
@@ -1023,38 +1024,6 @@ SG_NOINLINE uint32_t pk_sgi_chunks(struct pk_stepgen *sg, const struct pk_hal *h
             return 0u;
     }
 }
-
-#if PK_SG_HW_PULSE
-/* The core's own pulse paths, for a HAL without step_pulse (pk_sg_step.h:
- * inline in a build without PK_SG_HW_PULSE). */
-SG_NOINLINE uint32_t pk_sgi_pulse_low(struct pk_stepgen *sg, const struct pk_hal *hal)
-{
-    const uint32_t all = (1u << sg->axes) - 1u;
-    if (pk_hal_step_write(hal, all, 0u) != 0)
-        return pk_sgi_alarm(sg, PK_ALARM_STEP_WRITE);
-    sg->phase = PK_SGP_GAP;
-    if (sg->kill) {
-        /* a reset came while this pulse was high: it has had its full
-         * width, the line is low, stop here */
-        sg->kill = 0;
-        sg->v_um_s = 0u;
-        sg->busy = false;
-        return PK_HAL_TIMER_STOP;
-    }
-    return 0u;
-}
-
-
-SG_NOINLINE uint32_t pk_sgi_step_sw(struct pk_stepgen *sg, const struct pk_hal *hal, uint8_t mask)
-{
-    if (pk_hal_step_write(hal, (1u << sg->axes) - 1u, mask) != 0)
-        return pk_sgi_alarm(sg, PK_ALARM_STEP_WRITE);
-    isr_count(sg, mask, sg->dir_cur);
-    sg->phase = PK_SGP_PULSE;
-    return sg->pulse_ticks;
-}
-
-#endif
 
 /* The first call after (re)arming: the schedule ended at or before the stop
  * (a dwell cut short by a reset: after it), restart it from now. */
