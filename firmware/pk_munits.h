@@ -118,4 +118,13 @@ uint32_t pk_frac_q30(uint32_t x, uint32_t r);
  *  host tests check it against the 64-bit division). */
 uint32_t pk_frac_q30_soft(uint32_t x, uint32_t r);
 
+/** num * 2^30 / r truncated towards zero, as the 64-bit C division gives it,
+ *  for |num| <= r, 0 < r < 2^31 (a signed unit-vector component in Q1.30):
+ *  pk_frac_q30 of |num|, the sign put back. */
+static inline int32_t pk_frac_q30_signed(int32_t num, uint32_t r)
+{
+    const int32_t u = (int32_t)pk_frac_q30((uint32_t)(num < 0 ? -num : num), r);
+    return num < 0 ? -u : u;
+}
+
 #endif

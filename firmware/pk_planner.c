@@ -304,14 +304,10 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
      * than a step below 1,000 steps/mm. (|e| <= span_q8 < 2^31: |u| <=
      * 2^30, |e| << 30 < 2^61.) */
     pk_q30_t u[PK_AXES] = { 0 };
-    for (unsigned i = 0; i < axes; i++) {
-        /* the quotient e 2^30 / span truncated towards zero: |e| <= span <
-         * 2^31 (a clamped span is 2^31 - 1 > |e|), pk_frac_q30's range (a
-         * 32-bit division on 8-bit cores) */
-        const uint32_t ae = (uint32_t)(e[i] < 0 ? -e[i] : e[i]);
-        const int32_t ui = (int32_t)pk_frac_q30(ae, span_q8);
-        u[i] = e[i] < 0 ? -ui : ui;
-    }
+    /* |e| <= span < 2^31 (a clamped span is 2^31 - 1 > |e|): the quotient
+     * e 2^30 / span in pk_frac_q30's range (a 32-bit division on 8-bit cores) */
+    for (unsigned i = 0; i < axes; i++)
+        u[i] = pk_frac_q30_signed(e[i], span_q8);
     for (unsigned i = 0; i < axes; i++) {
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));

@@ -267,13 +267,9 @@ static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
     return kink + kink / 4u < blend;
 }
 
-/* d 2^38 / r truncated towards zero, as the 64-bit division gave (|d| << 8
- * <= r < 2^31: pk_frac_q30 of |d| << 8, the sign put back). */
-static int32_t unit_q30(int32_t d, uint32_t r_q8)
-{
-    const int32_t u = (int32_t)pk_frac_q30((uint32_t)(d < 0 ? -d : d) << 8, r_q8);
-    return d < 0 ? -u : u;
-}
+/* d 2^38 / r truncated towards zero, as the 64-bit division gave (|d| 256
+ * <= r < 2^31: the signed Q30 ratio of d in µm Q8). */
+static int32_t unit_q30(int32_t d, uint32_t r_q8) { return pk_frac_q30_signed(d * 256, r_q8); }
 
 /** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
  *  0 (keep sharp) for a turn beyond the threshold, a reversal or no budget. */
