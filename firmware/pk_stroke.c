@@ -413,21 +413,28 @@ static bool run_leg(const struct pk_stroke *st)
     return ss >= (uint64_t)PK_STROKE_RUN_MIN_LEG_UM * PK_STROKE_RUN_MIN_LEG_UM;
 }
 
+/* Leg v[0] -> v[1] is about to be queued (caps decided; the queue is empty,
+ * so the kernel has every point up to v[0], and no restart is pending): a
+ * straight run starts or goes on (the kernel ends at v[0], doubled), or a
+ * run ends (the kernel restarts at v[0] before this leg's points). */
+static void run_decide(struct pk_stroke *st)
+{
+    if (run_leg(st)) {
+        if (st->by == 0) {
+            pk_refine_finish(&st->k);
+            st->by = 1;
+        }
+    } else if (st->by != 0) {
+        st->by_restart = true;
+    }
+}
+
 /* With v[0..2] held: decide v[1]'s cap, queue leg 0 and v[1], shift. */
 static void advance(struct pk_stroke *st)
 {
     pk_um_t err = st->err_in[1] > st->err_in[2] ? st->err_in[1] : st->err_in[2];
     st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
-    if (run_leg(st)) {
-        if (st->by == 0) {
-            /* the kernel has every point up to v[0] (doubled): it ends there */
-            pk_refine_finish(&st->k);
-            st->by = 1;
-        }
-        st->by_restart = false;
-    } else if (st->by != 0) {
-        st->by_restart = true; /* a blend again: the kernel restarts at v[0] */
-    }
+    run_decide(st);
     queue_leg(st);
     queue_vertex(st, st->cap[1] == 0);
     memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
@@ -441,12 +448,7 @@ static void advance_last(struct pk_stroke *st)
 {
     if (st->nv == 2) {
         st->cap[1] = 0;
-        if (st->by != 0 && !run_leg(st))
-            st->by_restart = true;
-        else if (st->by == 0 && run_leg(st)) {
-            pk_refine_finish(&st->k);
-            st->by = 1;
-        }
+        run_decide(st);
         queue_leg(st);
         queue_vertex(st, true);
         memcpy(st->v[0], st->v[1], sizeof st->v[0]);
