@@ -11,6 +11,7 @@
  * same points, the same corner flags and the same observer events. The runs
  * must actually be taken (counted), or the comparison proves nothing.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -97,14 +98,7 @@ static size_t gen(pk_um_t pts[][PK_AXES], size_t n, unsigned axes)
             ang += (rr(65, 175) * 3.14159265 / 180.0) * (rnd() & 1u ? 1 : -1); /* sharp */
         else
             ang += rr(-300, 300) / 10000.0;                                     /* gentle */
-        double c = 1, s = 0;
-        /* cos/sin by a short series is enough for a test path */
-        double a = ang;
-        while (a > 3.14159265) a -= 6.2831853;
-        while (a < -3.14159265) a += 6.2831853;
-        double a2 = a * a;
-        c = 1 - a2 / 2 + a2 * a2 / 24 - a2 * a2 * a2 / 720 + a2 * a2 * a2 * a2 / 40320;
-        s = a * (1 - a2 / 6 + a2 * a2 / 120 - a2 * a2 * a2 / 5040 + a2 * a2 * a2 * a2 / 362880);
+        const double c = cos(ang), s = sin(ang);
         x += (pk_um_t)(len * c);
         y += (pk_um_t)(len * s);
         if (axes > 2 && rnd() % 23u == 0u)

@@ -205,28 +205,25 @@ static struct {
 
 static int clamp_pct(int v) { return v > 200 ? 200 : v < 10 ? 10 : v; }
 
+/* Grbl 1.1's feed or spindle step on the flags f of one batch, its five
+ * bytes from b0 (reset, +10, -10, +1, -1): each once, in that order, clamped. */
+static int pct_model(int v, uint32_t f, unsigned b0)
+{
+    static const int step[5] = { 0, 10, -10, 1, -1 };
+    for (unsigned k = 0; k < 5u; k++)
+        if ((f >> (b0 - 0x90u + k)) & 1u)
+            v = k == 0u ? 100 : v + step[k];
+    return clamp_pct(v);
+}
+
 /* Grbl 1.1's protocol_exec_rt_system on the override flags of one batch. */
 static void ovr_model(uint32_t f)
 {
-#define OVB(b) ((f >> ((b) - 0x90u)) & 1u)
-    int v = OV.feed;
-    if (OVB(0x90u)) v = 100;
-    if (OVB(0x91u)) v += 10;
-    if (OVB(0x92u)) v -= 10;
-    if (OVB(0x93u)) v += 1;
-    if (OVB(0x94u)) v -= 1;
-    OV.feed = clamp_pct(v);
-    if (OVB(0x95u)) OV.rapid = 100;
-    if (OVB(0x96u)) OV.rapid = 50;
-    if (OVB(0x97u)) OV.rapid = 25;
-    v = OV.spindle;
-    if (OVB(0x99u)) v = 100;
-    if (OVB(0x9Au)) v += 10;
-    if (OVB(0x9Bu)) v -= 10;
-    if (OVB(0x9Cu)) v += 1;
-    if (OVB(0x9Du)) v -= 1;
-    OV.spindle = clamp_pct(v);
-#undef OVB
+    OV.feed = pct_model(OV.feed, f, 0x90u);
+    if ((f >> (0x95u - 0x90u)) & 1u) OV.rapid = 100;
+    if ((f >> (0x96u - 0x90u)) & 1u) OV.rapid = 50;
+    if ((f >> (0x97u - 0x90u)) & 1u) OV.rapid = 25;
+    OV.spindle = pct_model(OV.spindle, f, 0x99u);
 }
 static unsigned long q_bytes, reports;
 static int status_owed;
