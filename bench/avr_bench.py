@@ -29,7 +29,8 @@ it is what the board does, HAL and interrupts included. Per board:
      planned time, step-timer restarts, the main loop's cycles per G-code line
      and where they go (the functions that cost most, inclusive).
 
-Prints tables; never a pass/fail verdict on timing. Exits 1, after printing
+PK_BENCH_ONLY=dense runs section 4 alone (a quicker loop while working on
+the main loop's cost). Prints tables; never a pass/fail verdict on timing. Exits 1, after printing
 what it could, if a measurement was impossible (an image that does not fit
 its part, a run that did not finish, a symbol missing from the ELF).
 """
@@ -331,6 +332,10 @@ def dense(board, tmp, elf):
             print('    %5.1f%%  %-22s %8d calls %8d' % (100.0 * c / tot, f, calls, c // max(1, calls)))
 
 
+# PK_BENCH_ONLY=dense runs section 4 alone (for iterating on the main loop's cost).
+ONLY = os.environ.get('PK_BENCH_ONLY', '')
+if ONLY not in ('', 'dense'):
+    sys.exit('bench-avr: PK_BENCH_ONLY must be empty or "dense", not %r' % ONLY)
 STEP_VECTOR = {'uno-cnc-shield': 11, 'mega-ramps': 32}
 OFFS = {}
 
@@ -354,6 +359,9 @@ def main():
                     impossible.append('%s: symbol %s missing from %s' % (b, need, elf))
             print('=' * 100)
             print('%s (%s), image %s' % (b, 'ATmega328P' if b.startswith('uno') else 'ATmega2560', hexf))
+            if ONLY == 'dense':
+                dense(b, tmp, elf)
+                continue
             drawing(b, 'smoothed pen strokes (tests/avr/strokes.gcode)', strokes, [], tmp, elf, syms)
             drawing(b, 'the bundled example (host-sim/examples/flower.gcode)', flower, [], tmp, elf, syms)
             max_rate(b, tmp)

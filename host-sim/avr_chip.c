@@ -434,6 +434,59 @@ static uint16_t sp_of(const avr_t *avr)
     return (uint16_t)(avr->data[R_SPL] | (avr->data[R_SPH] << 8));
 }
 
+/* The main-loop histogram with library routines charged to their callers:
+ * a shadow stack of the calls under way at the main level (CALL, RCALL,
+ * ICALL, EICALL), unwound by RET to the entry whose return address it
+ * reached (read from the stack before the RET runs, since an interrupt may
+ * be entered in the same step; a RET that matches none, such as a computed
+ * jump through the stack, leaves the stack alone). hist_site gives the
+ * address to charge pc0's cycles to: pc0 itself in the image's own code; in a
+ * library routine, the innermost call made from the image's own code. */
+static avr_flashaddr_t hist_site(const struct pk_avrchip *c, avr_flashaddr_t pc0)
+{
+    if (c->hist_lib[pc0 / 2u])
+        for (unsigned k = c->hist_depth; k > 0; k--) {
+            uint32_t site = c->hist_site[k - 1] & 0x7FFFFFFFu;
+            if (!c->hist_lib[site / 2u])
+                return site;
+        }
+    return pc0;
+}
+
+/* Before the instruction at pc0 runs: its kind (4 or 2: a call of that
+ * size, 1: a RET, 0: other) and, for a RET, where it returns to (*ret). */
+static int hist_op(const avr_t *avr, avr_flashaddr_t pc0, uint32_t *ret)
+{
+    const uint16_t op = (uint16_t)(avr->flash[pc0] | (avr->flash[pc0 + 1u] << 8));
+    if ((op & 0xFE0Eu) == 0x940Eu)
+        return 4;
+    if ((op & 0xF000u) == 0xD000u || op == 0x9509u || op == 0x9519u)
+        return 2;
+    if (op != 0x9508u)
+        return 0;
+    uint16_t sp = sp_of(avr);
+    uint32_t ra = 0; /* pushed high byte last: at SP + 1 */
+    for (unsigned k = 1; k <= avr->address_size; k++)
+        ra = (ra << 8) | avr->data[(uint16_t)(sp + k)];
+    *ret = 2u * ra;
+    return 1;
+}
+
+static void hist_track(struct pk_avrchip *c, avr_flashaddr_t pc0, int kind, uint32_t ret)
+{
+    if (kind >= 2 && c->hist_depth < sizeof c->hist_site / sizeof c->hist_site[0]) {
+        c->hist_site[c->hist_depth++] = (uint32_t)pc0 | (uint32_t)(kind == 4) << 31;
+    } else if (kind == 1) {
+        for (unsigned k = c->hist_depth; k > 0; k--) {
+            uint32_t e = c->hist_site[k - 1];
+            if ((e & 0x7FFFFFFFu) + ((e >> 31) ? 4u : 2u) == ret) {
+                c->hist_depth = (uint8_t)(k - 1);
+                break;
+            }
+        }
+    }
+}
+
 /* One instruction (plus whatever interrupt it let in), and the bookkeeping. */
 static void step(struct pk_avrchip *c)
 {
@@ -441,7 +494,13 @@ static void step(struct pk_avrchip *c)
     uint8_t depth0 = avr->interrupts.running_ptr;
     avr_cycle_count_t cyc0 = avr->cycle;
     avr_flashaddr_t pc0 = avr->pc;
+    uint32_t ret = 0;
+    const int track = c->hist != NULL && c->hist_main && c->hist_lib != NULL && depth0 == 0;
+    const int kind = track ? hist_op(avr, pc0, &ret) : 0;
+    const avr_flashaddr_t site = track ? hist_site(c, pc0) : pc0;
     c->state = avr_run(avr);
+    if (track)
+        hist_track(c, pc0, kind, ret);
     uint16_t sp = sp_of(avr);
     if (sp < c->sp_min)
         c->sp_min = sp;
@@ -449,8 +508,9 @@ static void step(struct pk_avrchip *c)
     uint8_t cur = c->n_frames ? c->frames[c->n_frames - 1].vec : 0xFFu;
     if (c->hist != NULL && pc0 / 2u < c->hist_words
         && (c->hist_main ? depth0 == 0 && depth == 0
-                         : depth0 > 0 && cur == c->b->step_vector))
-        c->hist[pc0 / 2u] += avr->cycle - cyc0;
+                         : depth0 > 0 && cur == c->b->step_vector)) {
+        c->hist[site / 2u] += avr->cycle - cyc0;
+    }
     if (depth > depth0 && c->n_frames < sizeof c->frames / sizeof c->frames[0]) {
         /* entered: the vector's first instruction runs next */
         c->frames[c->n_frames++] = (struct pk_avrchip_frame){

@@ -160,6 +160,11 @@ struct pk_avrchip {
                                            (hist_main: outside every interrupt instead) */
     int hist_main;
     size_t hist_words;
+    const uint8_t *hist_lib;          /**< with hist_main, if not NULL: per flash word, 1 = a library
+                                           routine (libgcc, libc): its cycles are charged to the call
+                                           instruction in the image's own code that entered it */
+    uint32_t hist_site[64];           /**< (private) return addresses of the calls under way */
+    uint8_t hist_depth;
     /* private */
     struct pk_avrchip_tap { struct pk_avrchip *c; uint8_t kind, axis; } taps[3 * PK_AVRCHIP_MAX_AXES + 1];
     uint8_t level[3 * PK_AVRCHIP_MAX_AXES + 1];

@@ -48,7 +48,8 @@ static const char avrsim_usage[] =
     "  --elf FILE       the image's ELF (symbols): also measure the main-loop functions;\n"
     "                   --profile adds a flat cycle profile of the step interrupt;\n"
     "                   --hist FILE writes its cycles per flash address (`ADDR CYCLES`)\n"
-    "                   (--hist-main FILE: the main loop's cycles instead);\n"
+    "                   (--hist-main FILE: the main loop's cycles instead, a library\n"
+    "                   routine's (libgcc, libc) charged to the call that entered it);\n"
     "                   --fn NAME also measures the function NAME (or NAME.*: a local\n"
     "                   of the link-time optimiser) outside interrupts, up to 12 of them\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
@@ -650,6 +651,26 @@ static size_t read_syms(const char *elf, struct sym **out)
     return n;
 }
 
+/* Per flash word, 1 inside a library routine (libgcc's arithmetic, avr-libc's
+ * mem* / str* / eeprom_*), for --hist-main: those cycles go to the caller.
+ * The register save/restore sequences of -mcall-prologues are entered by a
+ * jump, as part of the function that uses them: not a library call. */
+static uint8_t *lib_words(const struct sym *v, size_t n, size_t words)
+{
+    uint8_t *m = calloc(words, 1);
+    for (size_t i = 0; m != NULL && i < n; i++) {
+        const char *nm = v[i].name;
+        int lib = (!strncmp(nm, "__", 2) && strncmp(nm, "__vector", 8) && strncmp(nm, "__prologue", 10) &&
+                   strncmp(nm, "__epilogue", 10) && strncmp(nm, "__bad_interrupt", 15) && strncmp(nm, "__do_", 5) &&
+                   strncmp(nm, "__ctors", 7) && strncmp(nm, "__dtors", 7) && strncmp(nm, "__init", 6) &&
+                   strncmp(nm, "__trampolines", 13) && strncmp(nm, "__stop", 6)) ||
+                  !strncmp(nm, "mem", 3) || !strncmp(nm, "str", 3) || !strncmp(nm, "eeprom_", 7);
+        for (uint32_t a = v[i].addr; lib && a < v[i].addr + v[i].size && a / 2u < words; a += 2)
+            m[a / 2u] = 1;
+    }
+    return m;
+}
+
 static const struct sym *sym_find(const struct sym *v, size_t n, const char *name)
 {
     for (size_t i = 0; i < n; i++)
@@ -939,6 +960,7 @@ int cmd_avrsim(int argc, char **argv)
     const char *hex = NULL, *board = "uno-cnc-shield", *run = NULL, *config = NULL, *trace = NULL;
     const char *link = NULL, *driver = "drv8825", *elf = NULL, *hist_out = NULL;
     int hist_main = 0;
+    uint8_t *hist_lib = NULL;
     int json = 0, profile = 0;
     double timeout = 600.0, speed = 1.0, poll_hz = 0.0;
     struct at_event at[AT_MAX];
@@ -1139,6 +1161,8 @@ int cmd_avrsim(int argc, char **argv)
             s.chip.hist_words = 131072;
             s.chip.hist = calloc(s.chip.hist_words, sizeof *s.chip.hist);
             s.chip.hist_main = hist_main;
+            if (hist_main)
+                s.chip.hist_lib = hist_lib = lib_words(syms, nsyms, s.chip.hist_words);
         }
     }
     int rc;
@@ -1197,6 +1221,7 @@ int cmd_avrsim(int argc, char **argv)
         fclose(csv);
     free(syms);
     free(s.chip.hist);
+    free(hist_lib);
     free(s.lat_ms);
     pk_decoded_free(&s.res);
     pk_avrchip_close(&s.chip);
