@@ -64,6 +64,12 @@ struct pk_block {
     pk_v2_q4_t v2_exit;        /**< planned exit speed^2 (0 for stop blocks) */
     pk_v2_q4_t v2_rev;         /**< LINE: planner-private: the exit the reverse pass
                                     allows (kept for the next, incremental replan) */
+    pk_v2_q4_t v2_ceil;        /**< LINE: planner-private: the entry ceiling, v2_junction
+                                    capped by this block's and the line before's
+                                    nominal (set whenever a nominal is) */
+    pk_v2_q4_t v2_acc;         /**< LINE: planner-private: 2 accel len_q8 in speed^2 Q4,
+                                    what the whole block adds to a speed^2 (set when
+                                    the block is added) */
 };
 
 /** The ring (MAIN only). */

@@ -236,6 +236,30 @@ pk_v2_q4_t pk_planner_kink_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_A
     return v_q2 * v_q2;                            /* (µm/s)^2 x 16 = Q4 */
 }
 
+/* The k-th oldest block, k < count (pk_mq_at without its bounds check and
+ * its call: a replan looks up every block it walks, ~290,000 calls over a
+ * dense drawing on an 8-bit core). tail < PK_MQ_CAP and k < PK_MQ_CAP, so
+ * one conditional subtraction wraps the index (no division by a capacity
+ * that need not be a power of two). */
+static inline struct pk_block *slot(struct pk_mq *q, uint32_t k)
+{
+    uint32_t i = q->tail + k;
+    if (i >= PK_MQ_CAP)
+        i -= PK_MQ_CAP;
+    return &q->b[i];
+}
+
+/* Highest entry speed^2 of line block b after block a (NULL: none): the
+ * junction limit, and neither neighbour's nominal speed (both may change
+ * with the overrides: v2_ceil keeps it until they do). */
+static pk_v2_q4_t entry_ceiling(const struct pk_block *a, const struct pk_block *b)
+{
+    pk_v2_q4_t c = min64(b->v2_junction, b->v2_nom);
+    if (a != NULL && a->type == PK_BLK_LINE)
+        c = min64(c, a->v2_nom);
+    return c;
+}
+
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
                         uint32_t lead_q8, pk_um_min_t feed, uint8_t flags)
@@ -335,6 +359,8 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     b->v_req = feed;
     b->v2_nom = pk_planner_nominal_v2(p, b);
     pk_v2_q4_t vj = 0;
+    const uint32_t nq = pk_mq_count(q);
+    const struct pk_block *a0 = nq >= 2u ? slot(q, nq - 2u) : NULL; /* the block before */
     if (p->have_prev) {
         struct pk_planner_dyn dyn;
         const pk_um_s2_t a_turn = accel_min_moving(&p->lim, p->prev_u, u);
@@ -354,7 +380,6 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         }
         /* a turn that can limit the speed shares the acceleration with the
          * blocks on either side of it */
-        struct pk_block *a0 = pk_mq_count(q) >= 2 ? pk_mq_at(q, pk_mq_count(q) - 2u) : NULL;
         pk_v2_q4_t nom = b->v2_nom;
         if (a0 != NULL && a0->type == PK_BLK_LINE && a0->v2_nom > nom)
             nom = a0->v2_nom;
@@ -391,6 +416,12 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     }
     b->v2_junction = vj;
     b->v2_exit = 0;
+    /* what the replan takes from the block every time it walks it (the
+     * block before it is the line a0, or a stop: its nominal stays until an
+     * override change recomputes both; a block that is the queue's tail
+     * has no entry ceiling, and stays the tail) */
+    b->v2_acc = two_a_s(b->accel, len_q8);
+    b->v2_ceil = entry_ceiling(a0, b);
     p->have_prev = true;
     memcpy(p->prev_u, u, sizeof p->prev_u);
     p->prev_len_q8 = span_q8;
@@ -412,17 +443,6 @@ int pk_planner_add_stop(struct pk_planner *p, struct pk_mq *q, uint8_t type, uin
     return 1;
 }
 
-/* Highest entry speed^2 of line block k (k > 0): the junction limit, and
- * neither neighbour's nominal speed (both may change with the overrides). */
-static pk_v2_q4_t entry_ceiling(struct pk_mq *q, uint32_t k)
-{
-    const struct pk_block *b = pk_mq_at(q, k), *a = pk_mq_at(q, k - 1u);
-    pk_v2_q4_t c = min64(b->v2_junction, b->v2_nom);
-    if (a->type == PK_BLK_LINE)
-        c = min64(c, a->v2_nom);
-    return c;
-}
-
 void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now, uint32_t rem_q8,
                        bool end_known)
 {
@@ -441,10 +461,20 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
      * LINE block pushed without pk_planner_add_line has v2_nom = 0 (never a
      * nominal: at least 1) and gets one here. */
     const bool ovr_changed = p->nom_dirty;
+    bool renom_prev = false; /* the block before got its nominal again */
     for (uint32_t k = 0; k < n; k++) {
-        struct pk_block *b = pk_mq_at(q, k);
-        if (b->type == PK_BLK_LINE && (ovr_changed || b->v2_nom == 0u))
-            b->v2_nom = pk_planner_nominal_v2(p, b);
+        struct pk_block *b = slot(q, k);
+        bool renom = false;
+        if (b->type == PK_BLK_LINE) {
+            renom = ovr_changed || b->v2_nom == 0u;
+            if (b->v2_nom == 0u) /* (not added by pk_planner_add_line) */
+                b->v2_acc = two_a_s(b->accel, b->len_q8);
+            if (renom)
+                b->v2_nom = pk_planner_nominal_v2(p, b);
+            if (renom || renom_prev)
+                b->v2_ceil = entry_ceiling(k > 0u ? slot(q, k - 1u) : NULL, b);
+        }
+        renom_prev = renom;
     }
     p->nom_dirty = false;
     /* Incremental (Grbl's planned pointer). Since the last replan the step
@@ -479,7 +509,7 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
     uint32_t anchor = lo_rev < n ? 0u : anchor0;
     bool have_anchor = lo_rev >= n;
     for (uint32_t k = n; k-- > lo_rev;) {
-        struct pk_block *b = pk_mq_at(q, k);
+        struct pk_block *b = slot(q, k);
         if (b->type != PK_BLK_LINE) {
             b->v2_exit = 0;
             next_entry = 0;
@@ -492,9 +522,8 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         }
         b->v2_rev = next_entry;
         b->end_limited = limited;
-        uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
-        pk_v2_q4_t entry = b->v2_rev + two_a_s(b->accel, len);
-        pk_v2_q4_t ceil = (k == 0) ? v2_now : entry_ceiling(q, k);
+        pk_v2_q4_t entry = b->v2_rev + (k == 0 ? two_a_s(b->accel, rem_q8) : b->v2_acc);
+        pk_v2_q4_t ceil = (k == 0) ? v2_now : b->v2_ceil;
         if (ceil <= entry) {
             next_entry = ceil;
             limited = false;
@@ -518,17 +547,16 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
     /* Forward pass: from the current speed, acceleration caps each exit. */
     pk_v2_q4_t entry = v2_now;
     if (lo_fwd > 0)
-        entry = pk_mq_at(q, lo_fwd - 1u)->v2_exit; /* (0 for a stop block) */
+        entry = slot(q, lo_fwd - 1u)->v2_exit; /* (0 for a stop block) */
     for (uint32_t k = lo_fwd; k < n; k++) {
-        struct pk_block *b = pk_mq_at(q, k);
+        struct pk_block *b = slot(q, k);
         if (b->type != PK_BLK_LINE) {
             entry = 0;
             continue;
         }
-        if (k > 0 && entry > entry_ceiling(q, k))
-            entry = entry_ceiling(q, k);
-        uint32_t len = (k == 0) ? rem_q8 : b->len_q8;
-        pk_v2_q4_t reach = entry + two_a_s(b->accel, len);
+        if (k > 0 && entry > b->v2_ceil)
+            entry = b->v2_ceil;
+        pk_v2_q4_t reach = entry + (k == 0 ? two_a_s(b->accel, rem_q8) : b->v2_acc);
         pk_v2_q4_t ex = min64(b->v2_rev, min64(reach, b->v2_nom));
         const bool same = ex == b->v2_exit;
         b->v2_exit = ex;
@@ -536,7 +564,7 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
         if (same && k > 0u && k + 1u < lo_rev) {
             /* as before from here up to the blocks the reverse pass redid */
             k = lo_rev - 1u;
-            entry = pk_mq_at(q, k)->v2_exit;
+            entry = slot(q, k)->v2_exit;
         }
     }
     /* The final plans: the blocks from the tail up to the first end-limited
@@ -546,7 +574,7 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
      * cap). */
     uint32_t fin = 0;
     while (fin < n) {
-        const struct pk_block *b = pk_mq_at(q, fin);
+        const struct pk_block *b = slot(q, fin);
         if (b->type == PK_BLK_LINE && b->end_limited)
             break;
         fin++;
