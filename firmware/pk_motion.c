@@ -560,19 +560,41 @@ static struct pk_req *req_at(struct pk_machine *m, uint32_t i)
 
 /* ----------------------------------------------------------- planning */
 
-/* An ideal coordinate in steps Q8: um * spmm_q16 / (1000 * 65536) * 256
- * (|um * spmm| < 2^21 * 2^30 = 2^51). */
-static int64_t um_to_q8steps(pk_um_t um, pk_spmm_q16_t spmm)
+/* A coordinate's whole steps (pk_um_to_steps) and its ideal position in
+ * steps Q8 (um * spmm_q16 / (1000 * 65536) * 256, rounded as
+ * pk_div_round64 rounds) from ONE 64-bit division: on an 8-bit core each is
+ * a libgcc call of ~1,000 cycles, and plan_piece needed four per moving
+ * axis. Both round X = um spmm (|X| < 2^21 * 2^30 = 2^51) to nearest with
+ * ties away from zero, so both are odd and X >= 0 suffices: with X + 128000
+ * = 256000 q + r (0 <= r < 256000) the steps Q8 are q (< 2^34), and X +
+ * 32768000 = 256000 (q + 127) + (r + 128000), so pk_um_to_steps =
+ * floor((X + 32768000) / 65536000) = floor((q + 127 + [r >= 128000]) / 256)
+ * (the rest, below 256000, never carries past a multiple of 256; < 2^26 in
+ * magnitude). Checked against both on their range by
+ * tests/test_motion_divs.c. */
+static void um_conv(pk_um_t um, pk_spmm_q16_t spmm, struct pk_axconv *c)
 {
-    return pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
+    const uint32_t au = um < 0 ? 0u - (uint32_t)um : (uint32_t)um;
+    const uint64_t a = (uint64_t)au * spmm + 128000u;
+    const uint64_t q = a / 256000u;
+    const uint32_t r = (uint32_t)a - (uint32_t)q * 256000u; /* (mod 2^32: r < 2^18) */
+    const int32_t s = (int32_t)((q + 127u + (r >= 128000u)) >> 8);
+    c->um = um;
+    c->spmm = spmm;
+    c->st = um < 0 ? -s : s;
+    c->q8 = um < 0 ? -(int64_t)q : (int64_t)q;
 }
 
-/* An ideal coordinate relative to the whole step ts, steps Q8:
- * um_to_q8steps(um) - 256 ts, in 32 bits for a ts within 2^22 steps of it
- * (plan_piece: the block's start, |n| <= PK_PLANNER_MAX_STEPS). */
-static int32_t q8steps_from(pk_um_t um, pk_spmm_q16_t spmm, pk_steps_t ts)
+/* um_conv of axis i's coordinate um, kept in m->conv: plan_piece converts
+ * each block's start (the last block's end) and a still axis's end (its
+ * start) again. */
+static const struct pk_axconv *axis_conv(struct pk_machine *m, unsigned i, pk_um_t um)
 {
-    return (int32_t)(um_to_q8steps(um, spmm) - 256 * (int64_t)ts);
+    struct pk_axconv *c = &m->conv[i];
+    const pk_spmm_q16_t spmm = m->cfg.steps_per_mm_q16[i];
+    if (c->um != um || c->spmm != spmm)
+        um_conv(um, spmm, c);
+    return c;
 }
 
 /* The displacement of n steps in µm Q8: n * 1000 * 256 * 65536 / spmm,
@@ -606,14 +628,16 @@ static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
  * is nudged within [256 n - 256 D - 128, 256 n - 256 D + 127] so that the
  * count is exactly the n steps the block owes (ties of the rounding).
  */
-/* The whole steps st of p, the steps n from the planned position, and the
- * largest |n|. */
-static uint32_t piece_steps(const struct pk_machine *m, const pk_um_t p[PK_AXES],
-                            pk_steps_t st[PK_AXES], pk_steps_t n[PK_AXES])
+/* The whole steps st of p (and its steps Q8, q8), the steps n from the
+ * planned position, and the largest |n|. */
+static uint32_t piece_steps(struct pk_machine *m, const pk_um_t p[PK_AXES], pk_steps_t st[PK_AXES],
+                            int64_t q8[PK_AXES], pk_steps_t n[PK_AXES])
 {
     uint32_t mx = 0;
     for (unsigned i = 0; i < m->cfg.axes; i++) {
-        st[i] = pk_um_to_steps(p[i], m->cfg.steps_per_mm_q16[i]);
+        const struct pk_axconv *c = axis_conv(m, i, p[i]);
+        st[i] = c->st;
+        q8[i] = c->q8;
         n[i] = st[i] - m->target_steps[i];
         uint32_t an = (uint32_t)(n[i] < 0 ? -n[i] : n[i]);
         if (an > mx)
@@ -628,7 +652,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
     pk_um_t p[PK_AXES];
     memcpy(p, p_in, sizeof p);
     pk_steps_t st[PK_AXES] = { 0 }, n[PK_AXES] = { 0 };
-    uint32_t mx = piece_steps(m, p, st, n);
+    /* the start's steps Q8 first: piece_steps keeps p's in m->conv */
+    int64_t q8a[PK_AXES] = { 0 }, q8b[PK_AXES] = { 0 };
+    for (unsigned i = 0; i < axes; i++)
+        q8a[i] = axis_conv(m, i, m->target_um[i])->q8;
+    uint32_t mx = piece_steps(m, p, st, q8b, n);
     int done = 1;
     if (mx > PK_PLANNER_MAX_STEPS) {
         /* a piece along the way (the rest follows in later blocks) */
@@ -636,7 +664,7 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         for (unsigned i = 0; i < axes; i++)
             p[i] = m->target_um[i] + (p_in[i] - m->target_um[i]) / (int32_t)k; /* |.| < 2^23 */
         done = 0;
-        mx = piece_steps(m, p, st, n);
+        mx = piece_steps(m, p, st, q8b, n);
     }
     if (mx == 0) {
         memcpy(m->target_um, p, sizeof m->target_um);
@@ -645,8 +673,8 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         return done;
     }
     int32_t d_q8[PK_AXES] = { 0 };
-    for (unsigned i = 0; i < axes; i++)
-        d_q8[i] = steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
+    for (unsigned i = 0; i < axes; i++) /* (no step, no way: skip the division) */
+        d_q8[i] = n[i] == 0 ? 0 : steps_to_um_q8(n[i], m->cfg.steps_per_mm_q16[i]);
     int32_t d_um[PK_AXES] = { 0 };
     /* Moves with no whole step since the last block (target_um moved on
      * from timed_um) took no time, so a step right after one came as early
@@ -688,8 +716,11 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         if (n[i] == 0)
             continue;
         int32_t sgn = n[i] > 0 ? 1 : -1;
-        const int32_t fa = q8steps_from(m->target_um[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
-        const int32_t fb = q8steps_from(p[i], m->cfg.steps_per_mm_q16[i], m->target_steps[i]);
+        /* relative to the whole step ts: in 32 bits for a ts within 2^22 steps
+         * (the block's start, |n| <= PK_PLANNER_MAX_STEPS) */
+        const int64_t ts256 = 256 * (int64_t)m->target_steps[i];
+        const int32_t fa = (int32_t)(q8a[i] - ts256);
+        const int32_t fb = (int32_t)(q8b[i] - ts256);
         f_ax[i] = fa * sgn;
         d_ax[i] = (fb - fa) * sgn;
         if (d_ax[i] < 0)

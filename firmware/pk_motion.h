@@ -235,6 +235,15 @@ struct pk_machine {
                                               without it; the next block's exact
                                               motion (its steps' placement and its
                                               axes' limits) starts here (finding M6) */
+    struct pk_axconv {                   /* an axis's last coordinate converted to steps
+                                              (plan_piece; MAIN): a block's start is the
+                                              last one's end, a still axis's end its
+                                              start; spmm 0 = none */
+        pk_um_t um;
+        pk_spmm_q16_t spmm;
+        pk_steps_t st;                   /* pk_um_to_steps(um, spmm) */
+        int64_t q8;                      /* um_to_q8steps(um, spmm), pk_motion.c */
+    } conv[PK_AXES];
     pk_um_t req_z_um;                    /**< Z of the last move taken from the FIFO: a feed
                                               move that changes it bypasses smoothing (MAIN) */
     pk_um_min_t stroke_feed;             /**< feed of the open stroke, µm/min (MAIN) */
