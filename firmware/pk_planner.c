@@ -116,9 +116,11 @@ void pk_planner_break(struct pk_planner *p)
 
 pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_block *b)
 {
-    /* v_lim, v_req <= PK_UM_MIN_MAX < 2^26, overrides <= 200 %: < 2^27 */
-    uint32_t v = b->rapid ? pk_muldiv_u32(b->v_lim, p->ovr_rapid_pct, 100u)
-                          : pk_muldiv_u32(b->v_req, p->ovr_feed_pct, 100u);
+    /* v_lim, v_req <= PK_UM_MIN_MAX < 2^26, overrides <= 200 %: < 2^27 (at
+     * 100 % the product and quotient give v itself: no 64-bit division) */
+    const uint32_t v0 = b->rapid ? b->v_lim : b->v_req;
+    const uint16_t pct = b->rapid ? p->ovr_rapid_pct : p->ovr_feed_pct;
+    uint32_t v = pct == 100u ? v0 : pk_muldiv_u32(v0, pct, 100u);
     if (v > b->v_lim)
         v = b->v_lim;
     pk_v2_q4_t v2 = v2_of_um_min(v);
@@ -133,6 +135,22 @@ void pk_planner_set_override(struct pk_planner *p, uint16_t feed_pct, uint16_t r
     p->ovr_rapid_pct = rapid_pct;
 }
 
+/* Whether x y (both > 0) stays below 2^63, from their bit lengths: 1 yes, 0
+ * no, 2 undecided (x < 2^bx, y < 2^by and x >= 2^(bx-1), y >= 2^(by-1):
+ * below 2^63 when bx + by <= 63, at least 2^64 when bx + by >= 65). The
+ * exact test is a 64-bit division, ~1,400 cycles on an 8-bit core. */
+static unsigned mul_fits63(uint64_t x, uint64_t y)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    const unsigned b = 128u - (unsigned)__builtin_clzll(x) - (unsigned)__builtin_clzll(y);
+    return b <= 63u ? 1u : b >= 65u ? 0u : 2u;
+#else
+    (void)x;
+    (void)y;
+    return 2u;
+#endif
+}
+
 pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta)
 {
@@ -144,7 +162,8 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
      * which keeps its precision for the small turns of dense polylines. */
     int64_t dd = 0;
     for (unsigned i = 0; i < axes; i++)
-        dd += (int64_t)u1[i] * u2[i];
+        if (u1[i] != 0 && u2[i] != 0) /* (a still axis adds nothing) */
+            dd += (int64_t)u1[i] * u2[i];
     dd = pk_rshift_round64(dd, 30);
     int32_t d = dd > PK_Q30_ONE ? PK_Q30_ONE : dd < -PK_Q30_ONE ? -PK_Q30_ONE : (int32_t)dd;
     uint32_t h = ((uint32_t)PK_Q30_ONE - (uint32_t)d) / 2u; /* Q30, 0..2^30 */
@@ -157,10 +176,18 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
     uint32_t r = pk_mulshr_u32(s, (uint32_t)PK_Q30_ONE + s, 30); /* s(1+s), Q30, <= 2^31 */
     uint64_t q = ((uint64_t)r << 20) / h;        /* s(1+s)/h, Q20 */
     uint64_t ad = (uint64_t)a * (uint64_t)delta; /* < 2^27 * 2^14 = 2^41 */
-    /* v2 (Q4) = ad * q >> 16; saturate */
-    if (q != 0 && ad > (UINT64_MAX >> 1) / q)
+    /* v2 (Q4) = ad * q >> 16; saturate where ad q > 2^63 - 1 (that is ad >
+     * floor((2^63 - 1) / q)) */
+    if (q == 0 || ad == 0)
+        return 0;
+    switch (mul_fits63(ad, q)) {
+    case 0:
         return UINT64_MAX;
-    return (ad * q) >> 16;
+    case 1:
+        return (ad * q) >> 16;
+    default:
+        return ad > (UINT64_MAX >> 1) / q ? UINT64_MAX : (ad * q) >> 16;
+    }
 }
 
 /* |u2 - u1| in Q30, from the components' squares in Q56 (|d| <= 2^31:
@@ -169,8 +196,12 @@ static uint64_t turn_q30(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
 {
     uint64_t ss = 0;
     for (unsigned i = 0; i < axes; i++) {
-        int64_t d = (int64_t)u2[i] - u1[i];
-        ss += (uint64_t)(d * d) >> 4;
+        /* |u2 - u1| < 2^32: its square as a 32 x 32-bit product (a still
+         * axis adds nothing) */
+        const uint32_t d = u2[i] >= u1[i] ? (uint32_t)u2[i] - (uint32_t)u1[i]
+                                          : (uint32_t)u1[i] - (uint32_t)u2[i];
+        if (d != 0)
+            ss += ((uint64_t)d * d) >> 4;
     }
     return (uint64_t)pk_isqrt64(ss) << 2;
 }
@@ -193,12 +224,26 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
     return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
 }
 
+/* floor(a * share / 2^15) for a share <= 2^15 (Q1.15), in 32 bits: with a =
+ * 2^15 h + l, a share = 2^15 h share + l share, so the floor is h share +
+ * floor(l share / 2^15), h share < 2^17 * 2^15 and l share < 2^30: the 64-bit
+ * product's result for any 32-bit a. */
+static uint32_t share_q15(uint32_t a, uint32_t share)
+{
+    return (a >> 15) * share + (((a & 0x7FFFu) * share) >> 15);
+}
+
+/* The kink cap of pk_planner_dyn: (a_min - along) * KINK_MS / 1000 (< 2^27 * 2^16). */
+static uint32_t jump_of(pk_um_s2_t a_min, pk_um_s2_t along)
+{
+    return (uint32_t)(((uint64_t)(a_min - along) * PK_PLANNER_KINK_MS) / 1000u);
+}
+
 static void dyn_of(pk_um_s2_t a_min, pk_um_t delta_um, struct pk_planner_dyn *d)
 {
     d->a_min = a_min;
-    d->a_side = (pk_um_s2_t)(((uint64_t)a_min * PK_PLANNER_SIDE_Q15) >> 15);
-    pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)a_min * PK_PLANNER_ALONG_Q15) >> 15);
-    d->jump_um_s = (uint32_t)(((uint64_t)(a_min - along) * PK_PLANNER_KINK_MS) / 1000u);
+    d->a_side = share_q15(a_min, PK_PLANNER_SIDE_Q15);
+    d->jump_um_s = jump_of(a_min, share_q15(a_min, PK_PLANNER_ALONG_Q15));
     d->delta_um = delta_um;
 }
 
@@ -265,16 +310,15 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
                         uint32_t lead_q8, pk_um_min_t feed, uint8_t flags)
 {
     const uint8_t axes = p->lim.axes;
-    uint64_t ss = 0;
+    bool way = false; /* d_q8 is not zero (its square sum, below, is not) */
     uint32_t events = 0;
     for (unsigned i = 0; i < axes; i++) {
-        int32_t d = d_q8[i];
-        ss += (uint64_t)((int64_t)d * d); /* |d_q8| < 2^30: 3 * 2^60 < 2^62 */
+        way |= d_q8[i] != 0;
         uint32_t st = (uint32_t)(d_steps[i] < 0 ? -d_steps[i] : d_steps[i]);
         if (st > events)
             events = st;
     }
-    if (events == 0 || ss == 0)
+    if (events == 0 || !way)
         return 0;
     if (pk_mq_room(q) == 0)
         return -1;
@@ -301,7 +345,8 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     }
     if (se == 0) {
         memcpy(e, d_q8, sizeof e);
-        se = ss;
+        for (unsigned i = 0; i < axes; i++) /* |d_q8| < 2^30: 3 * 2^60 < 2^62 */
+            se += (uint64_t)((int64_t)d_q8[i] * d_q8[i]);
     }
     uint32_t span_q8 = pk_isqrt64(se);
     if (span_q8 == 0)
@@ -330,20 +375,37 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     pk_q30_t u[PK_AXES] = { 0 };
     /* |e| <= span < 2^31 (a clamped span is 2^31 - 1 > |e|): the quotient
      * e 2^30 / span in pk_frac_q30's range (a 32-bit division on 8-bit cores) */
-    for (unsigned i = 0; i < axes; i++)
-        u[i] = pk_frac_q30_signed(e[i], span_q8);
+    for (unsigned i = 0; i < axes; i++) /* (0 for a still axis: no division) */
+        u[i] = e[i] == 0 ? 0 : pk_frac_q30_signed(e[i], span_q8);
+    /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
+     * (saturated quotients: only their minimum with the caps counts), and
+     * the same for the accelerations (over the exact part of the block: its
+     * lead has no step, and the steps and their exact crossings all fall
+     * after it). floor(max_rate span / |d|) and its saturation grow with
+     * the ratio max_rate / |d|, so the smallest quotient is that of the
+     * axis with the smallest ratio: found by comparing cross products
+     * (< 2^32 * 2^32, exact), one 64-bit division for the block, not one
+     * per moving axis. */
+    unsigned iv = PK_AXES, ia = PK_AXES;
+    uint32_t dv = 0, da = 0;
     for (unsigned i = 0; i < axes; i++) {
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
         const uint32_t ad = (uint32_t)(e[i] < 0 ? -e[i] : e[i]);
         if (ad == 0)
             continue;
-        /* axis speed = v * |d|/len <= max_rate  =>  v <= max_rate * len / |d|
-         * (saturated quotients: only their minimum with the caps counts) */
-        /* (over the exact part of the block: its lead has no step, and
-         * the steps and their exact crossings all fall after it) */
-        uint32_t vl = pk_muldiv_u32(p->lim.max_rate[i], span_q8, ad);
-        uint32_t al = pk_muldiv_u32(p->lim.accel[i], span_q8, ad);
+        if (iv == PK_AXES || (uint64_t)p->lim.max_rate[i] * dv < (uint64_t)p->lim.max_rate[iv] * ad) {
+            iv = i;
+            dv = ad;
+        }
+        if (ia == PK_AXES || (uint64_t)p->lim.accel[i] * da < (uint64_t)p->lim.accel[ia] * ad) {
+            ia = i;
+            da = ad;
+        }
+    }
+    if (iv < PK_AXES) {
+        const uint32_t vl = pk_muldiv_u32(p->lim.max_rate[iv], span_q8, dv);
+        const uint32_t al = pk_muldiv_u32(p->lim.accel[ia], span_q8, da);
         if (vl < v_lim)
             v_lim = vl;
         if (al < acc)
@@ -362,11 +424,10 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
     const uint32_t nq = pk_mq_count(q);
     const struct pk_block *a0 = nq >= 2u ? slot(q, nq - 2u) : NULL; /* the block before */
     if (p->have_prev) {
-        struct pk_planner_dyn dyn;
+        /* (pk_planner_dyn's shares; its kink cap only for a smoothed vertex) */
         const pk_um_s2_t a_turn = accel_min_moving(&p->lim, p->prev_u, u);
-        dyn_of(a_turn, p->lim.junction_dev_um, &dyn);
-        const pk_um_s2_t side = dyn.a_side;
-        const pk_um_s2_t along = (pk_um_s2_t)(((uint64_t)a_turn * PK_PLANNER_ALONG_Q15) >> 15);
+        const pk_um_s2_t side = share_q15(a_turn, PK_PLANNER_SIDE_Q15);
+        const pk_um_s2_t along = share_q15(a_turn, PK_PLANNER_ALONG_Q15);
         pk_v2_q4_t curv = pk_planner_curvature_v2(p->prev_u, u, axes, p->prev_len_q8, span_q8, side);
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {
@@ -375,7 +436,7 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
             vj = min64(grbl, curv);
             turn = curv < grbl ? curv : UINT64_MAX; /* Grbl's corner model rules */
         } else {
-            vj = min64(curv, pk_planner_kink_v2(p->prev_u, u, axes, dyn.jump_um_s));
+            vj = min64(curv, pk_planner_kink_v2(p->prev_u, u, axes, jump_of(a_turn, along)));
             turn = vj;
         }
         /* a turn that can limit the speed shares the acceleration with the
@@ -461,8 +522,16 @@ void pk_planner_replan(struct pk_planner *p, struct pk_mq *q, pk_v2_q4_t v2_now,
      * LINE block pushed without pk_planner_add_line has v2_nom = 0 (never a
      * nominal: at least 1) and gets one here. */
     const bool ovr_changed = p->nom_dirty;
+    /* (without an override change, the blocks the last replan saw have
+     * theirs: only those appended since can lack one) */
+    uint32_t k_nom = 0;
+    if (p->plan_valid && !ovr_changed) {
+        const uint32_t popped = (uint16_t)(q->pops - p->plan_pops);
+        if (popped <= p->plan_count && n + popped >= p->plan_count)
+            k_nom = p->plan_count - popped;
+    }
     bool renom_prev = false; /* the block before got its nominal again */
-    for (uint32_t k = 0; k < n; k++) {
+    for (uint32_t k = k_nom; k < n; k++) {
         struct pk_block *b = slot(q, k);
         bool renom = false;
         if (b->type == PK_BLK_LINE) {

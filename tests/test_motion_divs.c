@@ -2,13 +2,15 @@
  * test_motion_divs.c — the motion core's static arithmetic helpers that
  * replace 64-bit library divisions on 8-bit cores (pk_motion.c, pk_planner.c)
  * give exactly what the plain C expressions they stand for give, on the
- * ranges their comments state: edges, ties and random values. (The sources
+ * ranges their comments state: edges, ties and random values (the planner's
+ * against the expressions they replaced, copied here). (The sources
  * are included, so the helpers are tested as compiled, not copies of them.)
  */
 #include <stdint.h>
 #include <string.h>
 #include "th.h"
 #include "../firmware/pk_motion.c"
+#include "../firmware/pk_planner.c"
 
 int th_main(int argc, char **argv);
 
@@ -54,12 +56,109 @@ static void test_one_division_gives_the_steps_and_the_steps_q8_of_a_coordinate(v
     TH_EXPECT_EQ(bad, 0);
 }
 
+/* pk_planner_junction_v2 as it was, with its 64-bit division testing the
+ * saturation */
+static pk_v2_q4_t ref_junction(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes,
+                               pk_um_s2_t a, pk_um_t delta)
+{
+    int64_t dd = 0;
+    for (unsigned i = 0; i < axes; i++)
+        dd += (int64_t)u1[i] * u2[i];
+    dd = pk_rshift_round64(dd, 30);
+    int32_t d = dd > PK_Q30_ONE ? PK_Q30_ONE : dd < -PK_Q30_ONE ? -PK_Q30_ONE : (int32_t)dd;
+    uint32_t h = ((uint32_t)PK_Q30_ONE - (uint32_t)d) / 2u;
+    if (h == 0)
+        return UINT64_MAX;
+    uint32_t s2 = ((uint32_t)PK_Q30_ONE + (uint32_t)d) / 2u;
+    uint32_t s = pk_isqrt64((uint64_t)s2 << 30);
+    if (s == 0 || delta == 0)
+        return 0;
+    uint32_t r = pk_mulshr_u32(s, (uint32_t)PK_Q30_ONE + s, 30);
+    uint64_t q = ((uint64_t)r << 20) / h;
+    uint64_t ad = (uint64_t)a * (uint64_t)delta;
+    if (q != 0 && ad > (UINT64_MAX >> 1) / q)
+        return UINT64_MAX;
+    return (ad * q) >> 16;
+}
+
+/* pk_planner_curvature_v2 as it was (64-bit signed squares) */
+static pk_v2_q4_t ref_curvature(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes,
+                                uint32_t l1_q8, uint32_t l2_q8, pk_um_s2_t a)
+{
+    uint64_t ss = 0;
+    for (unsigned i = 0; i < axes; i++) {
+        int64_t d = (int64_t)u2[i] - u1[i];
+        ss += (uint64_t)(d * d) >> 4;
+    }
+    uint64_t du = (uint64_t)pk_isqrt64(ss) << 2;
+    if (du == 0)
+        return UINT64_MAX;
+    uint64_t lmin = l1_q8 < l2_q8 ? l1_q8 : l2_q8;
+    uint64_t num = (uint64_t)a * (2u * lmin);
+    uint64_t qt = num / du;
+    return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
+}
+
+/* a component of a unit vector (|u| <= 2^30), now and then 0 or +-2^30 */
+static pk_q30_t rnd_u(void)
+{
+    switch (xr() % 8u) {
+    case 0:
+        return 0;
+    case 1:
+        return xr() % 2u ? PK_Q30_ONE : -PK_Q30_ONE;
+    default:
+        return (pk_q30_t)(xr() % (2u * (uint32_t)PK_Q30_ONE + 1u)) - PK_Q30_ONE;
+    }
+}
+
+static void test_the_junction_and_curvature_limits_are_those_of_the_64_bit_expressions(void)
+{
+    unsigned bad = 0, sat = 0;
+    for (int k = 0; k < 400000; k++) {
+        pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
+        const uint8_t axes = (uint8_t)(2u + xr() % (PK_AXES - 1u));
+        for (unsigned i = 0; i < axes; i++) {
+            u1[i] = rnd_u();
+            /* small turns too: u2 near u1 */
+            u2[i] = xr() % 2u ? rnd_u() : u1[i] + (pk_q30_t)(xr() % 2001u) - 1000;
+            if (u2[i] > PK_Q30_ONE || u2[i] < -PK_Q30_ONE)
+                u2[i] = u1[i];
+        }
+        /* accelerations and deviations over their whole ranges, and beyond
+         * (the saturation) */
+        const pk_um_s2_t a = (pk_um_s2_t)(xr() >> (xr() % 64u));
+        const pk_um_t delta = (pk_um_t)(xr() % 4u == 0u ? xr() % 10001u : xr() >> 33);
+        const pk_v2_q4_t j = pk_planner_junction_v2(u1, u2, axes, a, delta);
+        bad += j != ref_junction(u1, u2, axes, a, delta);
+        sat += j == UINT64_MAX;
+        const uint32_t l1 = (uint32_t)(xr() >> (32u + xr() % 32u)), l2 = (uint32_t)(xr() >> (32u + xr() % 32u));
+        bad += pk_planner_curvature_v2(u1, u2, axes, l1, l2, a) != ref_curvature(u1, u2, axes, l1, l2, a);
+    }
+    TH_EXPECT(sat > 1000);
+    TH_EXPECT_EQ(bad, 0);
+}
+
+static void test_the_shares_of_an_acceleration_are_those_of_the_64_bit_products(void)
+{
+    static const uint32_t sh[] = { 0u, 1u, 23170u, 32767u, 32768u };
+    unsigned bad = 0;
+    for (int k = 0; k < 200000; k++) {
+        const uint32_t a = k < 64 ? UINT32_MAX - (uint32_t)k : (uint32_t)(xr() >> (xr() % 64u));
+        for (unsigned i = 0; i < TH_COUNT(sh); i++)
+            bad += share_q15(a, sh[i]) != (uint32_t)(((uint64_t)a * sh[i]) >> 15);
+    }
+    TH_EXPECT_EQ(bad, 0);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_one_division_gives_the_steps_and_the_steps_q8_of_a_coordinate),
+        TH_CASE(test_the_junction_and_curvature_limits_are_those_of_the_64_bit_expressions),
+        TH_CASE(test_the_shares_of_an_acceleration_are_those_of_the_64_bit_products),
     };
     return th_run(cases, TH_COUNT(cases));
 }
