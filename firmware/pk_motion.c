@@ -574,15 +574,20 @@ static struct pk_req *req_at(struct pk_machine *m, uint32_t i)
  * tests/test_motion_divs.c. */
 static void um_conv(pk_um_t um, pk_spmm_q16_t spmm, struct pk_axconv *c)
 {
+    c->um = um;
+    c->spmm = spmm;
+#if PK_FLASH_FIRST /* (the two divisions: ~200 B less AVR code) */
+    c->st = pk_um_to_steps(um, spmm);
+    c->q8 = pk_div_round64((int64_t)um * (int64_t)spmm, 256000);
+#else
     const uint32_t au = um < 0 ? 0u - (uint32_t)um : (uint32_t)um;
     const uint64_t a = (uint64_t)au * spmm + 128000u;
     const uint64_t q = a / 256000u;
     const uint32_t r = (uint32_t)a - (uint32_t)q * 256000u; /* (mod 2^32: r < 2^18) */
     const int32_t s = (int32_t)((q + 127u + (r >= 128000u)) >> 8);
-    c->um = um;
-    c->spmm = spmm;
     c->st = um < 0 ? -s : s;
     c->q8 = um < 0 ? -(int64_t)q : (int64_t)q;
+#endif
 }
 
 /* um_conv of axis i's coordinate um, kept in m->conv: plan_piece converts

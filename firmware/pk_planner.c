@@ -141,7 +141,7 @@ void pk_planner_set_override(struct pk_planner *p, uint16_t feed_pct, uint16_t r
  * exact test is a 64-bit division, ~1,400 cycles on an 8-bit core. */
 static unsigned mul_fits63(uint64_t x, uint64_t y)
 {
-#if defined(__GNUC__) || defined(__clang__)
+#if (defined(__GNUC__) || defined(__clang__)) && !PK_FLASH_FIRST /* (else ~120 B of AVR code) */
     const unsigned b = 128u - (unsigned)__builtin_clzll(x) - (unsigned)__builtin_clzll(y);
     return b <= 63u ? 1u : b >= 65u ? 0u : 2u;
 #else
@@ -305,6 +305,30 @@ static pk_v2_q4_t entry_ceiling(const struct pk_block *a, const struct pk_block 
     return c;
 }
 
+/* The smallest pk_muldiv_u32(lim[i], span, ad[i]) over the axes with ad[i]
+ * != 0 (UINT32_MAX if none), by one division (see pk_planner_add_line); on
+ * a board that needs the flash more (PK_FLASH_FIRST: the 64-bit
+ * comparisons are ~250 B of AVR code) one per axis. */
+static uint32_t min_ratio_muldiv(const uint32_t lim[PK_AXES], uint32_t span, const uint32_t ad[PK_AXES],
+                                 uint8_t axes)
+{
+#if PK_FLASH_FIRST
+    uint32_t m = UINT32_MAX;
+    for (unsigned i = 0; i < axes; i++) {
+        const uint32_t q = ad[i] != 0 ? pk_muldiv_u32(lim[i], span, ad[i]) : UINT32_MAX;
+        if (q < m)
+            m = q;
+    }
+    return m;
+#else
+    unsigned k = PK_AXES;
+    for (unsigned i = 0; i < axes; i++)
+        if (ad[i] != 0 && (k == PK_AXES || (uint64_t)lim[i] * ad[k] < (uint64_t)lim[k] * ad[i]))
+            k = i;
+    return k == PK_AXES ? UINT32_MAX : pk_muldiv_u32(lim[k], span, ad[k]);
+#endif
+}
+
 int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q8[PK_AXES],
                         const pk_steps_t d_steps[PK_AXES], const int32_t d_um[PK_AXES],
                         uint32_t lead_q8, pk_um_min_t feed, uint8_t flags)
@@ -386,31 +410,18 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
      * axis with the smallest ratio: found by comparing cross products
      * (< 2^32 * 2^32, exact), one 64-bit division for the block, not one
      * per moving axis. */
-    unsigned iv = PK_AXES, ia = PK_AXES;
-    uint32_t dv = 0, da = 0;
+    uint32_t ad[PK_AXES] = { 0 };
     for (unsigned i = 0; i < axes; i++) {
         if (d_steps[i] > 0)
             b->dir_mask = (uint8_t)(b->dir_mask | (1u << i));
-        const uint32_t ad = (uint32_t)(e[i] < 0 ? -e[i] : e[i]);
-        if (ad == 0)
-            continue;
-        if (iv == PK_AXES || (uint64_t)p->lim.max_rate[i] * dv < (uint64_t)p->lim.max_rate[iv] * ad) {
-            iv = i;
-            dv = ad;
-        }
-        if (ia == PK_AXES || (uint64_t)p->lim.accel[i] * da < (uint64_t)p->lim.accel[ia] * ad) {
-            ia = i;
-            da = ad;
-        }
+        ad[i] = (uint32_t)(e[i] < 0 ? -e[i] : e[i]);
     }
-    if (iv < PK_AXES) {
-        const uint32_t vl = pk_muldiv_u32(p->lim.max_rate[iv], span_q8, dv);
-        const uint32_t al = pk_muldiv_u32(p->lim.accel[ia], span_q8, da);
-        if (vl < v_lim)
-            v_lim = vl;
-        if (al < acc)
-            acc = al;
-    }
+    const uint32_t vl = min_ratio_muldiv(p->lim.max_rate, span_q8, ad, axes);
+    const uint32_t al = min_ratio_muldiv(p->lim.accel, span_q8, ad, axes);
+    if (vl < v_lim)
+        v_lim = vl;
+    if (al < acc)
+        acc = al;
     if (v_lim == 0)
         v_lim = 1;
     if (acc == 0)
