@@ -11,8 +11,9 @@ uint32_t pk_isqrt64(uint64_t x)
      * root^2 <= 2 root. The bits are taken a byte (four steps) at a time and
      * leading zero bytes are skipped (root and rem stay 0 there). The widths
      * follow the bounds, since on an 8-bit core every operation costs a
-     * cycle per byte (the plain 64-bit form took ~7,100 cycles a root on the
-     * AVR, its 32-bit form ~1,900):
+     * cycle per byte (on the AVR: the plain 64-bit form ~7,100 cycles a
+     * root, all steps in 32 bits ~1,875, this one ~1,300 on the roots of a
+     * dense drawing; bench/avr/avr_arith_cycles.c measures it alone):
      *   - steps 1..12 (the first three bytes) in 16 bits: root < 2^12,
      *     rem <= 2 root < 2^13, so 4 rem + 3 < 2^15 and 4 root + 1 < 2^14;
      *   - then 32 bits up to step 30 (rem < 2^30 before it: 4 rem + 3 <
@@ -85,75 +86,6 @@ uint32_t pk_isqrt64(uint64_t x)
         }
     }
     return root;
-}
-
-uint32_t pk_udiv64_32_soft(uint64_t n, uint32_t d)
-{
-    /* Restoring division, one quotient bit a step, in 32-bit words: rem < d
-     * is the running remainder; the dividend's low word shifts out of q from
-     * the top while the quotient bits shift in. Leading quotient bytes that
-     * are zero are skipped (q < 2^(32 - s) iff n >> (32 - s) < d, which is
-     * then the starting remainder). For d <= 2^31, 2 rem + 1 < 2^32 needs
-     * no carry; a larger d keeps the remainder's bit 32 in `top`. */
-    const uint32_t hi = (uint32_t)(n >> 32), lo = (uint32_t)n;
-    uint32_t rem = hi, q = lo;
-    uint8_t steps = 32;
-    if (hi < 0x1000000u && ((hi << 8) | (lo >> 24)) < d) {
-        rem = (hi << 8) | (lo >> 24);
-        q = lo << 8;
-        steps = 24;
-        if (hi < 0x10000u && ((hi << 16) | (lo >> 16)) < d) {
-            rem = (hi << 16) | (lo >> 16);
-            q = lo << 16;
-            steps = 16;
-            if (hi < 0x100u && ((hi << 24) | (lo >> 8)) < d) {
-                rem = (hi << 24) | (lo >> 8);
-                q = lo << 24;
-                steps = 8;
-            }
-        }
-    }
-    if (d <= 0x80000000u) {
-        for (; steps > 0u; steps--) {
-            rem = rem + rem + (q >> 31); /* rem < d <= 2^31: no carry */
-            q = q + q;
-            if (rem >= d) {
-                rem -= d;
-                q |= 1u;
-            }
-        }
-    } else {
-        for (; steps > 0u; steps--) {
-            const uint32_t top = rem & 0x80000000u;
-            rem = rem + rem + (q >> 31);
-            q = q + q;
-            if (top != 0u || rem >= d) {
-                rem -= d; /* (mod 2^32: the true remainder is below d) */
-                q |= 1u;
-            }
-        }
-    }
-    return q;
-}
-
-uint32_t pk_udiv64_32(uint64_t n, uint32_t d)
-{
-#if PK_SOFT_DIV
-    return pk_udiv64_32_soft(n, d);
-#else
-    return (uint32_t)(n / d);
-#endif
-}
-
-int64_t pk_div_round64_soft(int64_t x, int64_t d)
-{
-    const uint64_t u = (uint64_t)(x >= 0 ? x : -x) + (uint64_t)(d / 2); /* |x| < 2^62 */
-    uint64_t q;
-    if ((uint64_t)d <= UINT32_MAX && (u >> 32) < (uint64_t)d)
-        q = pk_udiv64_32(u, (uint32_t)d);
-    else
-        q = u / (uint64_t)d;
-    return x >= 0 ? (int64_t)q : -(int64_t)q;
 }
 
 /* Unit vector along d in Q1.30: scale so that the largest component lies in

@@ -96,42 +96,10 @@ uint32_t pk_isqrt64(uint64_t x);
  *  restoring division in 32 bits), so no library divide on small targets. */
 void pk_unit_q30(const int64_t *d, unsigned dims, pk_q30_t *t);
 
-/* PK_SOFT_DIV=1: the divisions whose quotient fits 32 bits are done by shift
- * and subtract in 32-bit words instead of libgcc's 64-bit division (a
- * 64-step loop in 64-bit words: ~2,500 cycles on the AVR): cores without a
- * divide instruction and with narrow registers. Same results. */
-#ifndef PK_SOFT_DIV
-#if UINTPTR_MAX <= 0xFFFFu
-#define PK_SOFT_DIV 1
-#else
-#define PK_SOFT_DIV 0
-#endif
-#endif
-
-/** floor(n / d) for d > 0 and a quotient below 2^32 (n < d 2^32, i.e.
- *  (n >> 32) < d). With PK_SOFT_DIV a shift-and-subtract division in 32-bit
- *  words, one step per quotient bit after the leading zero bytes (~30 AVR
- *  cycles a bit; bench/avr/avr_arith_cycles.c); elsewhere the 64-bit
- *  division. */
-uint32_t pk_udiv64_32(uint64_t n, uint32_t d);
-
-/** The shift-and-subtract form of pk_udiv64_32 on every build (so that the
- *  host tests check it against the 64-bit division); same contract. */
-uint32_t pk_udiv64_32_soft(uint64_t n, uint32_t d);
-
-/** pk_div_round64 for PK_SOFT_DIV builds: through pk_udiv64_32 when d and
- *  the quotient fit 32 bits (every motion-core use: step and µm
- *  conversions), else the 64-bit division. */
-int64_t pk_div_round64_soft(int64_t x, int64_t d);
-
 /** Round x / d to nearest, ties away from zero. d > 0, |x| < 2^62. */
 static inline int64_t pk_div_round64(int64_t x, int64_t d)
 {
-#if PK_SOFT_DIV
-    return pk_div_round64_soft(x, d);
-#else
     return x >= 0 ? (x + d / 2) / d : -((-x + d / 2) / d);
-#endif
 }
 
 #endif

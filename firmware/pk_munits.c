@@ -25,10 +25,8 @@ pk_um_s_t pk_um_min_to_um_s(pk_um_min_t v)
 
 uint32_t pk_muldiv_u32(uint32_t a, uint32_t b, uint32_t d)
 {
-    const uint64_t p = (uint64_t)a * b;
-    if ((p >> 32) >= d)
-        return UINT32_MAX; /* the quotient is 2^32 or more */
-    return pk_udiv64_32(p, d);
+    uint64_t q = ((uint64_t)a * b) / d;
+    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
 }
 
 uint32_t pk_mulshr_u32(uint32_t a, uint32_t b, unsigned s)

@@ -29,8 +29,17 @@
 #define PK_FLASH_FIRST 0
 #endif
 
-/* PK_SOFT_DIV (the shift-and-subtract divisions of 8- and 16-bit cores):
- * pk_fixed.h. */
+/* PK_SOFT_DIV=1: the few divisions whose quotient and remainder fit 32 bits
+ * are done by shift and subtract in 32-bit words instead of libgcc's 64-bit
+ * division (pk_frac_q30): cores without a divide instruction and with
+ * narrow registers. Same results. */
+#ifndef PK_SOFT_DIV
+#if UINTPTR_MAX <= 0xFFFFu
+#define PK_SOFT_DIV 1
+#else
+#define PK_SOFT_DIV 0
+#endif
+#endif
 
 typedef uint32_t pk_um_min_t;
 #define PK_UM_MIN_MAX 60000000u          /**< 60 m/min = 1 m/s */

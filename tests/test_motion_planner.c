@@ -49,48 +49,6 @@ static void test_isqrt64_is_the_exact_floor_everywhere(void)
     TH_EXPECT_EQ(bad, 0);
 }
 
-/* pk_udiv64_32's shift-and-subtract form (the 8-bit cores' 64/32 division)
- * is the floor of the 64-bit quotient wherever the quotient fits 32 bits,
- * and pk_div_round64_soft (which uses it) rounds as pk_div_round64's 64-bit
- * form does, for either sign; checked here on the host, where the plain
- * forms divide in hardware. */
-static void test_soft_64_by_32_division_is_the_64_bit_division(void)
-{
-    static const uint32_t dedge[] = { 1, 2, 3, 255, 256, 65535, 65536, 256000, 0x7FFFFFFFu, 0x80000000u,
-                                      0x80000001u, UINT32_MAX - 1, UINT32_MAX };
-    unsigned bad = 0, badr = 0;
-    for (unsigned k = 0; k < TH_COUNT(dedge); k++) {
-        const uint32_t d = dedge[k];
-        const uint64_t top = (uint64_t)d << 32; /* n < top: the quotient fits */
-        const uint64_t ns[] = { 0, 1, d - 1u, d, top - 1u, top - d, top / 2u, (uint64_t)UINT32_MAX };
-        for (unsigned j = 0; j < TH_COUNT(ns); j++)
-            if (ns[j] < top && pk_udiv64_32_soft(ns[j], d) != (uint32_t)(ns[j] / d))
-                bad++;
-    }
-    for (int k = 0; k < 300000; k++) {
-        uint32_t d = (uint32_t)(xr() >> (xr() % 64));
-        if (d == 0u)
-            d = 1u;
-        uint64_t n = xr() >> (xr() % 64);
-        if ((n >> 32) >= d)
-            n %= (uint64_t)d << 32;
-        if (pk_udiv64_32_soft(n, d) != (uint32_t)(n / d))
-            bad++;
-        /* rounding: |x| < 2^62, d > 0 of any width */
-        int64_t x = (int64_t)(xr() >> (2 + xr() % 62)) * ((xr() & 1u) ? -1 : 1);
-        int64_t dd = (int64_t)(xr() >> (1 + xr() % 63));
-        if (dd == 0)
-            dd = 1;
-        const int64_t want = x >= 0 ? (x + dd / 2) / dd : -((-x + dd / 2) / dd);
-        if (pk_div_round64_soft(x, dd) != want || pk_div_round64_soft(x, (int64_t)d) !=
-                                                      (x >= 0 ? (x + (int64_t)d / 2) / (int64_t)d
-                                                              : -((-x + (int64_t)d / 2) / (int64_t)d)))
-            badr++;
-    }
-    TH_EXPECT_EQ(bad, 0);
-    TH_EXPECT_EQ(badr, 0);
-}
-
 /* pk_frac_q30 (the decimator's ratios, 32-bit shift and subtract on 8-bit
  * cores) is the floor of the 64-bit quotient for every x <= r < 2^31; its
  * soft form is checked here on the host, where pk_frac_q30 itself divides. */
@@ -402,7 +360,6 @@ int th_main(int argc, char **argv)
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_isqrt64_is_the_exact_floor_everywhere),
-        TH_CASE(test_soft_64_by_32_division_is_the_64_bit_division),
         TH_CASE(test_micrometres_round_to_the_nearest_step_like_a_double_reference),
         TH_CASE(test_frac_q30_is_the_exact_floor_of_the_64_bit_quotient),
         TH_CASE(test_replanned_speeds_respect_every_constraint_on_random_polylines),
