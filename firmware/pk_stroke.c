@@ -340,8 +340,12 @@ static uint32_t vertex_cap(struct pk_stroke *st, pk_um_t err)
     const pk_q30_t *u1 = leg_dir(st, 0, d1, l1), *u2 = leg_dir(st, 1, d2, l2);
     /* |u| <= 2^30 (1 + 2^-12): the dot product and the cross products, Q30
      * after the shift, fit 32 bits */
+    /* legs in the XY plane (a pen plotter's): the 3-axis sums below with
+     * their Z terms 0, which are the 2-axis ones exactly (the same products
+     * summed before the shift; the cross product's X and Y components 0) */
+    const bool flat = PK_AXES == 2 || n == 2 || (u1[2] == 0 && u2[2] == 0);
     int32_t dot;
-    if (PK_AXES == 2 || n == 2) {    /* (the same sum of two products) */
+    if (flat) {                      /* (the same sum of two products) */
         dot = mac2_q30(u1[0], u2[0], u1[1], u2[1]);
     } else {
         int64_t dot64 = 0;
@@ -352,7 +356,7 @@ static uint32_t vertex_cap(struct pk_stroke *st, pk_um_t err)
     if (dot < st->cos_sharp)
         return 0;
     uint64_t s2 = 0;                 /* |u1 x u2|^2 in Q60 */
-    if (PK_AXES == 2 || n == 2) {
+    if (flat) {
         int32_t cr = mac2_q30(u1[0], u2[1], -u1[1], u2[0]);
         s2 = (uint64_t)((int64_t)cr * cr);
     } else {
