@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """avr_profile.py — where the main loop's cycles go on the chip, by function and source line.
 
-usage: avr_profile.py [--build DIR] [--board NAME] [--top N] [PROGRAM.gcode [CONFIG]]
+usage: avr_profile.py [--build DIR] [--board NAME] [--top N] [--charge FN]... [PROGRAM.gcode [CONFIG]]
 
 Runs a board image (default mega-ramps, as `make firmware` built it) under
 `plotkin avrsim --hist-main` on PROGRAM (default: bench-avr's dense drawing,
@@ -12,6 +12,9 @@ library routine (libgcc's 64-bit multiply and divide, memcpy, ...) are charged
 by the simulator to the call in plotkin's code that entered it, so a line
 that divides shows the division's cost. Cycle counts are exact (simavr), so
 before/after comparisons hold on a noisy machine.
+
+--charge FN charges the function FN's cycles to its callers as well (e.g.
+pk_isqrt64: which lines take square roots, and what they cost).
 
 Prints two tables: functions (self cycles, libgcc folded in), then source
 lines. A tool for working on the main loop's cost, not a pass/fail check.
@@ -29,13 +32,15 @@ DENSE = 'bench/corpus/files/svg2gcode-smooth-curves.gcode'
 def main():
     args = sys.argv[1:]
     build, board, top = 'build', 'mega-ramps', 30
-    pos = []
+    pos, charge = [], []
     while args:
         a = args.pop(0)
         if a == '--build':
             build = args.pop(0)
         elif a == '--board':
             board = args.pop(0)
+        elif a == '--charge':
+            charge += ['--charge-caller', args.pop(0)]
         elif a == '--top':
             top = int(args.pop(0))
         else:
@@ -52,7 +57,7 @@ def main():
             open(prog, 'w').write('G64 P0.02\n' + re.sub(r'F300\b', 'F6000', open(DENSE).read()))
         hist = os.path.join(tmp, 'main.hist')
         cmd = [os.path.join(build, 'plotkin'), 'avrsim', hexf, '--board', board, '--run', prog, '--json',
-               '--timeout', '900', '--elf', elf, '--hist-main', hist]
+               '--timeout', '900', '--elf', elf, '--hist-main', hist] + charge
         if len(pos) > 1:
             cmd += ['--config', pos[1]]
         p = subprocess.run(cmd, capture_output=True, text=True)

@@ -26,6 +26,13 @@ $(BENCH_DIR)/avr-ax%/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c bench/
 	@mkdir -p $(@D)
 	$(AVR_CC) $(AVR_BENCH_FLAGS) -DPK_AXES=$* -DPK_BUILD_LIMIT=0 -Wl,--gc-sections \
 	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-ax$*/libplotkin_fw.a
+# 4. The integer square root of the motion core (bench/avr/avr_arith_cycles.c),
+#    on the 2-axis library: cycles per call, its results checked on the chip
+#    (tests/extra/avr_arith.sh requires the "= wrong results" row to be 0).
+$(BENCH_DIR)/avr-arith/avr_arith_cycles.elf: bench/avr/avr_arith_cycles.c bench/avr/avr_mark.h $(TGT_DIR)/avr-ax2/libplotkin_fw.a
+	@mkdir -p $(@D)
+	$(AVR_CC) $(AVR_BENCH_FLAGS) -Wall -Wextra -Werror -DPK_AXES=2 -DPK_BUILD_LIMIT=0 -Wl,--gc-sections \
+	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-ax2/libplotkin_fw.a
 $(BENCH_DIR)/avr_cycles: bench/avr_cycles.c
 	@mkdir -p $(@D)
 	$(CC) -std=gnu11 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags simavr) -o $@ $< $$(pkg-config --libs simavr) -lelf
@@ -41,7 +48,7 @@ $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf: bench/avr/avr_refine_cycles.c be
 	$(AVR_CC) $(AVR_BENCH_FLAGS) $(AVR_CHAIKIN_DEFS) -Wl,--gc-sections \
 	  -Wl,--undefined=_mmcu,--section-start=.mmcu=0x910000 -o $@ $< $(TGT_DIR)/avr-chaikin/libplotkin_fw.a
 
-AVR_BENCH_ELFS := $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf \
+AVR_BENCH_ELFS := $(BENCH_DIR)/avr-arith/avr_arith_cycles.elf $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf $(BENCH_DIR)/avr-ax3/avr_refine_cycles.elf \
                   $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf
 AVR_BOARDS := $(foreach f,$(sort $(wildcard hal/avr/*/board.mk)),$(notdir $(patsubst %/,%,$(dir $(f)))))
 
@@ -59,6 +66,9 @@ bench-avr: $(BENCH_DIR)/avr_cycles $(AVR_BENCH_ELFS) firmware-images $(BUILD)/pl
 	@echo "PK_REFINE_FAST_PULL=1); \"block\": pk_refine_pull_block, 16 points a call; issue 14's goal for"
 	@echo "chaikin d4: <= 300 cycles per output point"
 	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-chaikin/avr_refine_cycles.elf "chaikin" | grep -v 'init failed' | grep .
+	@echo "the motion core's integer square root on the 328P (bench/avr/avr_arith_cycles.c: 300 operands a row;"
+	@echo "\"= wrong results\": roots checked on the chip)"
+	@$(BENCH_DIR)/avr_cycles $(BENCH_DIR)/avr-arith/avr_arith_cycles.elf "helpers"
 	@avr-size -A $(BENCH_DIR)/avr-ax2/avr_refine_cycles.elf | awk '$$1==".text"||$$1==".data"||$$1==".bss"{s=s" "$$1" "$$2} END{print "AVR kernel bench image (2 axes):"s" bytes"}'
 	@$(PYTHON3) bench/avr_bench.py $(BUILD) $(AVR_BOARDS)
 

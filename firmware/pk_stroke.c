@@ -233,6 +233,46 @@ static int32_t mac2_q30(int32_t a, int32_t b, int32_t c, int32_t d)
     return (int32_t)(((int64_t)a * b + (int64_t)c * d) >> 30);
 }
 
+/* Legs. Every leg v[i] -> v[i + 1] of the vertex window has its length and
+ * direction taken three times: as the second leg of one vertex's cap, as the
+ * first leg of the next vertex's, and (its length) when it is queued. They
+ * are kept for the two legs of the window (leg_q8, leg_u, leg_have) and move
+ * with it in advance; any other change of the window forgets them. Each is a
+ * function of its two vertices only (and of the axes, fixed at init), so the
+ * kept figures are those a new computation would give: the same points out
+ * (tests/test_stroke_runs.c compares with a build that computes them anew,
+ * PK_STROKE_LEGS=0). On an 8-bit core a length is a 64-bit square root
+ * (~1,300 AVR cycles) and a direction two or three ~600-cycle divisions. */
+#ifndef PK_STROKE_LEGS
+#define PK_STROKE_LEGS 1
+#endif
+#define LEG_LEN(i) (1u << (i))
+#define LEG_DIR(i) (4u << (i))
+
+/* The length of leg i (v[i] -> v[i + 1]) in µm Q8, and its difference d. */
+static uint32_t leg_len(struct pk_stroke *st, unsigned i, int32_t d[PK_AXES])
+{
+    diff(st->v[i], st->v[i + 1], d);
+    if (PK_STROKE_LEGS && (st->leg_have & LEG_LEN(i)))
+        return st->leg_q8[i];
+    uint32_t l = len_q8(d, st->axes);
+    st->leg_q8[i] = l;
+    st->leg_have |= (uint8_t)LEG_LEN(i);
+    return l;
+}
+
+/* Forget the legs' figures (the window changed other than by advance). */
+static void legs_forget(struct pk_stroke *st) { st->leg_have = 0; }
+
+/* The window moved by one vertex: leg 1 becomes leg 0. */
+static void legs_shift(struct pk_stroke *st)
+{
+    st->leg_q8[0] = st->leg_q8[1];
+    memcpy(st->leg_u[0], st->leg_u[1], sizeof st->leg_u[0]);
+    st->leg_have = (uint8_t)(((st->leg_have & LEG_LEN(1)) ? LEG_LEN(0) : 0u) |
+                             ((st->leg_have & LEG_DIR(1)) ? LEG_DIR(0) : 0u));
+}
+
 /* Is the kink at a corner (the exact path: Grbl's junction deviation and the
  * curvature over its legs, as the planner will take it) slower than a blend of
  * half-length up to cap? The blend's radius at its apex is h cos^2(phi/2) /
@@ -274,28 +314,38 @@ static int32_t unit_q30(int32_t d, uint32_t r_q8) { return pk_frac_q30_signed(d 
 /** Blend capacity at vertex B between A and C (µm, saturating at CAP_INF):
  *  0 (keep sharp) for a turn beyond the threshold, a reversal or no budget. */
 #define CAP_INF ((uint32_t)1 << 30)
-static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
-                           const pk_um_t b[PK_AXES], const pk_um_t c[PK_AXES], pk_um_t err)
+/* The unit vector of leg i (length l_q8 > 0, difference d), Q1.30. */
+static const pk_q30_t *leg_dir(struct pk_stroke *st, unsigned i, const int32_t d[PK_AXES], uint32_t l_q8)
+{
+    if (!PK_STROKE_LEGS || !(st->leg_have & LEG_DIR(i))) {
+        /* |d[i]| << 8 <= l (l = floor(256 |d|)), so |u[i]| <= 2^30; l < 256
+         * sqrt(3) 2^22 < 2^31 (|d[i]| < 2 PK_UM_MAX): unit_q30's ratio, the
+         * 64-bit quotient d 2^38 / l (a 32-bit division on 8-bit cores) */
+        memset(st->leg_u[i], 0, sizeof st->leg_u[i]);
+        for (unsigned k = 0; k < st->axes; k++)
+            st->leg_u[i][k] = unit_q30(d[k], l_q8);
+        st->leg_have |= (uint8_t)LEG_DIR(i);
+    }
+    return st->leg_u[i];
+}
+
+/* The cap of v[1], between v[0] and v[2]. */
+static uint32_t vertex_cap(struct pk_stroke *st, pk_um_t err)
 {
     int32_t d1[PK_AXES], d2[PK_AXES];
-    diff(a, b, d1);
-    diff(b, c, d2);
     unsigned n = st->axes;
-    uint32_t l1 = len_q8(d1, n), l2 = len_q8(d2, n);
+    uint32_t l1 = leg_len(st, 0, d1), l2 = leg_len(st, 1, d2);
     if (l1 == 0 || l2 == 0)
         return 0;
-    /* unit vectors, Q30: |d[i]| << 8 <= l (l = floor(256 |d|)), so |u[i]| <= 2^30;
-     * l < 256 sqrt(3) 2^22 < 2^31 (|d[i]| < 2 PK_UM_MAX): unit_q30's ratio,
-     * the 64-bit quotient d 2^38 / l (a 32-bit division on 8-bit cores) */
-    pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
-    for (unsigned i = 0; i < n; i++) {
-        u1[i] = unit_q30(d1[i], l1);
-        u2[i] = unit_q30(d2[i], l2);
-    }
+    const pk_q30_t *u1 = leg_dir(st, 0, d1, l1), *u2 = leg_dir(st, 1, d2, l2);
     /* |u| <= 2^30 (1 + 2^-12): the dot product and the cross products, Q30
      * after the shift, fit 32 bits */
+    /* legs in the XY plane (a pen plotter's): the 3-axis sums below with
+     * their Z terms 0, which are the 2-axis ones exactly (the same products
+     * summed before the shift; the cross product's X and Y components 0) */
+    const bool flat = PK_AXES == 2 || n == 2 || (u1[2] == 0 && u2[2] == 0);
     int32_t dot;
-    if (PK_AXES == 2 || n == 2) {    /* (the same sum of two products) */
+    if (flat) {                      /* (the same sum of two products) */
         dot = mac2_q30(u1[0], u2[0], u1[1], u2[1]);
     } else {
         int64_t dot64 = 0;
@@ -306,7 +356,7 @@ static uint32_t vertex_cap(const struct pk_stroke *st, const pk_um_t a[PK_AXES],
     if (dot < st->cos_sharp)
         return 0;
     uint64_t s2 = 0;                 /* |u1 x u2|^2 in Q60 */
-    if (PK_AXES == 2 || n == 2) {
+    if (flat) {
         int32_t cr = mac2_q30(u1[0], u2[1], -u1[1], u2[0]);
         s2 = (uint64_t)((int64_t)cr * cr);
     } else {
@@ -353,10 +403,9 @@ static void along(const pk_um_t a[PK_AXES], const int32_t d[PK_AXES], uint32_t n
 /* Queue the points added on leg v[0] -> v[1] (caps known for both ends). */
 static void queue_leg(struct pk_stroke *st)
 {
-    const pk_um_t *a = st->v[0], *b = st->v[1];
+    const pk_um_t *a = st->v[0];
     int32_t d[PK_AXES];
-    diff(a, b, d);
-    uint32_t lq = len_q8(d, st->axes);               /* L, µm Q8, < 2^31 */
+    uint32_t lq = leg_len(st, 0, d);                  /* L, µm Q8, < 2^31 */
     /* the caps in µm Q8, each capped at L: every use below compares them
      * with L or less (up to CAP_INF << 8 = 2^38 otherwise) */
     uint32_t ca = st->cap[0] > (lq >> 8) ? lq : st->cap[0] << 8;
@@ -433,11 +482,12 @@ static void run_decide(struct pk_stroke *st)
 static void advance(struct pk_stroke *st)
 {
     pk_um_t err = st->err_in[1] > st->err_in[2] ? st->err_in[1] : st->err_in[2];
-    st->cap[1] = vertex_cap(st, st->v[0], st->v[1], st->v[2], err);
+    st->cap[1] = vertex_cap(st, err);
     run_decide(st);
     queue_leg(st);
     queue_vertex(st, st->cap[1] == 0);
     memmove(st->v[0], st->v[1], 2 * sizeof st->v[0]);
+    legs_shift(st);
     memmove(&st->err_in[0], &st->err_in[1], 2 * sizeof st->err_in[0]);
     st->cap[0] = st->cap[1];
     st->nv = 2;
@@ -453,6 +503,7 @@ static void advance_last(struct pk_stroke *st)
         queue_vertex(st, true);
         memcpy(st->v[0], st->v[1], sizeof st->v[0]);
     }
+    legs_forget(st);
     st->nv = 1;
 }
 
@@ -529,6 +580,7 @@ int pk_stroke_begin(struct pk_stroke *st, const pk_um_t start[PK_AXES])
         st->err_in[0] = 0;
         st->cap[0] = 0;
         st->nv = 1;
+        legs_forget(st);
     }
     return 0;
 }
@@ -776,6 +828,7 @@ void pk_stroke_reset(struct pk_stroke *st)
     st->emit_n = 0;
     st->nq = 0;
     st->nv = 0;
+    legs_forget(st);
     st->ncorner = 0;
     st->by = 0;
     st->by_restart = false;

@@ -103,6 +103,10 @@ struct pk_stroke {
     pk_um_t v[3][PK_AXES];
     pk_um_t err_in[3];         /**< chord error of the move arriving at v[i] */
     uint32_t cap[3];           /**< blend half-length capacity at v[i], µm (see pk_stroke.c) */
+    uint32_t leg_q8[2];        /**< |v[i+1] - v[i]|, µm Q8, where leg_have bit i says so */
+    pk_q30_t leg_u[2][PK_AXES]; /**< its unit vector, Q1.30, where leg_have bit i + 2 */
+    uint8_t leg_have;          /**< which of the two legs' figures are known (pk_stroke.c
+                                    "Legs") */
     uint8_t nq, q_head;        /**< control points queued for the kernel */
     pk_um_t q[4][PK_AXES];
     uint8_t q_corner;          /**< bit i: q[i] is the second copy of a corner kept sharp */

@@ -49,7 +49,8 @@ static const char avrsim_usage[] =
     "                   --profile adds a flat cycle profile of the step interrupt;\n"
     "                   --hist FILE writes its cycles per flash address (`ADDR CYCLES`)\n"
     "                   (--hist-main FILE: the main loop's cycles instead, a library\n"
-    "                   routine's (libgcc, libc) charged to the call that entered it);\n"
+    "                   routine's (libgcc, libc) charged to the call that entered it;\n"
+    "                   --charge-caller NAME: NAME's too, up to 12);\n"
     "                   --fn NAME also measures the function NAME (or NAME.*: a local\n"
     "                   of the link-time optimiser) outside interrupts, up to 12 of them\n"
     "  --watch N:ADDR   count the changes of the RAM byte at data address ADDR\n"
@@ -655,12 +656,15 @@ static size_t read_syms(const char *elf, struct sym **out)
  * mem* / str* / eeprom_*), for --hist-main: those cycles go to the caller.
  * The register save/restore sequences of -mcall-prologues are entered by a
  * jump, as part of the function that uses them: not a library call. */
-static uint8_t *lib_words(const struct sym *v, size_t n, size_t words)
+static uint8_t *lib_words(const struct sym *v, size_t n, size_t words, const char *const *also, unsigned n_also)
 {
     uint8_t *m = calloc(words, 1);
     for (size_t i = 0; m != NULL && i < n; i++) {
         const char *nm = v[i].name;
-        int lib = (!strncmp(nm, "__", 2) && strncmp(nm, "__vector", 8) && strncmp(nm, "__prologue", 10) &&
+        int lib = 0;
+        for (unsigned k = 0; k < n_also; k++)
+            lib |= !strcmp(nm, also[k]);
+        lib = lib || (!strncmp(nm, "__", 2) && strncmp(nm, "__vector", 8) && strncmp(nm, "__prologue", 10) &&
                    strncmp(nm, "__epilogue", 10) && strncmp(nm, "__bad_interrupt", 15) && strncmp(nm, "__do_", 5) &&
                    strncmp(nm, "__ctors", 7) && strncmp(nm, "__dtors", 7) && strncmp(nm, "__init", 6) &&
                    strncmp(nm, "__trampolines", 13) && strncmp(nm, "__stop", 6)) ||
@@ -961,6 +965,8 @@ int cmd_avrsim(int argc, char **argv)
     const char *link = NULL, *driver = "drv8825", *elf = NULL, *hist_out = NULL;
     int hist_main = 0;
     uint8_t *hist_lib = NULL;
+    const char *charge[12];
+    unsigned n_charge = 0;
     int json = 0, profile = 0;
     double timeout = 600.0, speed = 1.0, poll_hz = 0.0;
     struct at_event at[AT_MAX];
@@ -987,6 +993,12 @@ int cmd_avrsim(int argc, char **argv)
             hist_out = v, i++, profile = 1;
         } else if (v != NULL && !strcmp(a, "--hist-main")) {
             hist_out = v, i++, profile = 1, hist_main = 1;
+        } else if (v != NULL && !strcmp(a, "--charge-caller")) {
+            if (n_charge == 12) {
+                fprintf(stderr, "plotkin avrsim: at most 12 --charge-caller\n");
+                return 2;
+            }
+            charge[n_charge++] = v, i++;
         } else if (v != NULL && !strcmp(a, "--fn")) {
             if (n_xfn == 12) {
                 fprintf(stderr, "plotkin avrsim: at most 12 --fn\n");
@@ -1162,7 +1174,7 @@ int cmd_avrsim(int argc, char **argv)
             s.chip.hist = calloc(s.chip.hist_words, sizeof *s.chip.hist);
             s.chip.hist_main = hist_main;
             if (hist_main)
-                s.chip.hist_lib = hist_lib = lib_words(syms, nsyms, s.chip.hist_words);
+                s.chip.hist_lib = hist_lib = lib_words(syms, nsyms, s.chip.hist_words, charge, n_charge);
         }
     }
     int rc;

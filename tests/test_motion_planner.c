@@ -37,6 +37,15 @@ static void test_isqrt64_is_the_exact_floor_everywhere(void)
         if (!(r * r <= x && (r == UINT32_MAX || (r + 1) * (r + 1) > x)))
             bad++;
     }
+    /* the squares and their neighbours, at every width (the byte and
+     * 16/32/64-bit phase boundaries of the digit loop among them) */
+    for (int k = 0; k < 100000; k++) {
+        const uint64_t r = xr() >> (32 + xr() % 32); /* < 2^32 */
+        const uint64_t sq = r * r;
+        if (pk_isqrt64(sq) != r || (r > 0 && pk_isqrt64(sq - 1u) != r - 1u) ||
+            pk_isqrt64(sq + 2u * r) != r)
+            bad++;
+    }
     TH_EXPECT_EQ(bad, 0);
 }
 

@@ -4,7 +4,9 @@
  * the kernel and the decimator. Claim: the executed path is the one the
  * kernel and the decimator give. Checked differentially: this file compiles
  * pk_stroke.c a second time with PK_STROKE_RUNS=0 (every leg through the
- * kernel; its public functions renamed ref_*), and random strokes — dense
+ * kernel, and PK_STROKE_LEGS=0: every leg's length and direction computed
+ * anew, not kept from the previous vertex; its public functions renamed
+ * ref_*), and random strokes — dense
  * nearly straight polylines as SVG tools write them, sharp corners, long
  * legs, legs out of the XY plane, tolerances on both sides of the runs'
  * threshold, with and without a pull budget — must give both versions the
@@ -18,6 +20,7 @@
 #include "th.h"
 
 #define PK_STROKE_RUNS 0
+#define PK_STROKE_LEGS 0 /* nor the kept leg figures: computed anew */
 #define pk_stroke_check ref_stroke_check
 #define pk_stroke_set_dyn ref_stroke_set_dyn
 #define pk_stroke_set_pull_budget ref_stroke_set_pull_budget
