@@ -32,11 +32,13 @@ static inline uint32_t pk_sg_div32_soft(uint32_t hi, uint32_t lo, uint32_t d)
     uint8_t i = 32u;
     /* the next 8 quotient bits are 0 iff (rem:next byte) < d (hi < 2^24:
      * no bit shifted out) */
+#if !(defined(PK_FLASH_FIRST) && PK_FLASH_FIRST) /* (a flash-first board: bit by bit) */
     while (i > 8u && hi < ((uint32_t)1 << 24) && ((hi << 8) | (lo >> 24)) < d) {
         hi = (hi << 8) | (lo >> 24);
         lo <<= 8;
         i = (uint8_t)(i - 8u);
     }
+#endif
     /* lo: the dividend's bits still to bring down, the quotient's bits
      * entering at the bottom (hi < d throughout) */
     for (; i > 0u; i--) {

@@ -49,6 +49,26 @@
 
 /* ------------------------------------------------------------------ prep */
 
+/* x >> b (b a constant, 0 < b < 32) as a byte move and a shift of the word
+ * or byte that holds the bits kept: an 8-bit core's shift of a 32-bit word
+ * by a constant is otherwise a loop of b 4-byte steps (~7 cycles a bit, at
+ * -Os and -O2 alike), ~100 cycles for the >> 14 of a Q30 product. Exact for
+ * every x; on a flash-first board the plain shift (the loop is smaller). */
+static inline uint32_t shr32(uint32_t x, unsigned b)
+{
+#if PK_FLASH_FIRST
+    return x >> b;
+#else
+    if (b > 24u)
+        return (uint32_t)((uint8_t)(x >> 24) >> (b - 24u));
+    if (b > 16u)
+        return (uint32_t)((uint16_t)(x >> 16) >> (b - 16u));
+    if (b > 8u && b < 16u)
+        return ((x >> 16) << (16u - b)) | (uint32_t)((uint8_t)(x >> 8) >> (b - 8u));
+    return x >> b;
+#endif
+}
+
 /* Squares of speeds, (µm/s)^2 Q8. */
 static SG_PREP uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
 
@@ -169,16 +189,17 @@ static SG_PREP uint64_t at_time(uint64_t tau64, uint32_t T, uint32_t invT_q30, u
     const uint32_t tau = (uint32_t)tau64, t = tau >> 16;
     if (r_q15 > 0xFFFFu)
         r_q15 = 0xFFFFu;
-    uint32_t u_q16 = (t * invT_q30) >> 14;
+    /* (r_q15 < 2^16 and w_q16 < 2^16: a 16x16 product) */
+    uint32_t u_q16 = shr32(t * invT_q30, 14u);
     uint32_t w_q16 = (uint32_t)(uint16_t)u_q16 * (uint16_t)(0x10000u - u_q16) >> 16;
-    uint32_t eps = (((r_q15 * w_q16) >> 14) * T) >> 2;
+    uint32_t eps = (shr32((uint32_t)(uint16_t)r_q15 * (uint16_t)w_q16, 14u) * T) >> 2;
     /* first-order term: eps r |2u - 1| / 2 = (eps / 2^12) (r m / 2^20),
      * m_q16 = |2u - 1| */
     uint32_t m_q16 = 2u * u_q16 > 0x10000u ? 2u * u_q16 - 0x10000u : 0x10000u - 2u * u_q16;
     if (m_q16 > 0xFFFFu)
         m_q16 = 0xFFFFu;
-    uint32_t k = ((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16) >> 20;   /* Q11 */
-    uint32_t fix = (eps >> 12) * k;
+    uint32_t k = shr32((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16, 20u);   /* Q11 */
+    uint32_t fix = shr32(eps, 12u) * k;
     if ((2u * u_q16 > 0x10000u) == accel)
         eps = eps > fix ? eps - fix : 0u;
     else
@@ -211,7 +232,8 @@ static SG_PREP uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? 
 /* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
  * so that the division is 32-bit (dv <= vsum < 2^16 after it: a 16-step
  * division of 16-bit words on an 8-bit core, ~250 AVR cycles against ~650
- * for libgcc's 32-bit one). */
+ * for libgcc's 32-bit one; a flash-first board keeps the library's, already
+ * linked). */
 static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 {
     while (vsum >= 65536u) {
@@ -220,7 +242,7 @@ static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
     }
     if (vsum == 0u)
         vsum = 1u;
-#if PK_SOFT_DIV
+#if PK_SOFT_DIV && !PK_FLASH_FIRST
     if (dv <= vsum)
         return pk_sg_frac_q16_soft((uint16_t)dv, (uint16_t)vsum);
 #endif
@@ -626,7 +648,10 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
     if (n > 0) {
         /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
          * halves around the mean) */
-        const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
+        /* (the 64-bit shift only above 2^32) */
+        const uint32_t T = full                     ? sg->seg_ticks << lv
+                           : seg_q16 > UINT32_MAX ? (uint32_t)(seg_q16 >> 16)
+                                                  : (uint32_t)seg_q16 >> 16;
         const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
         const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
         uint64_t tt[2];
@@ -651,10 +676,10 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
                  * 16x16 products (mean < 2^31, r_q15 <= 2^16 - 1, per <= 2^16) */
                 const uint32_t r16 = r_q15 > 0xFFFFu ? 0xFFFFu : r_q15;
                 uint32_t ch = ((mean >> 16) * r16 << 1)
-                              + ((uint32_t)(uint16_t)mean * (uint16_t)r16 >> 15);
+                              + shr32((uint32_t)(uint16_t)mean * (uint16_t)r16, 15u);
                 if (ch > mean)
                     ch = mean;
-                uint32_t per = ((mean >> 16) * invT) >> 14;
+                uint32_t per = shr32((mean >> 16) * invT, 14u);
                 if (per > 0x10000u)
                     per = 0x10000u;
                 int32_t a = (int32_t)((ch >> 16) * per + (((ch & 0xFFFFu) * per) >> 16));
