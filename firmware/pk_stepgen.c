@@ -32,6 +32,7 @@
 #include "pk_motion.h"
 #define PK_SG_PULSE_BODIES /* the out-of-line pulse paths of a PK_SG_HW_PULSE build */
 #include "pk_sg_step.h"
+#include "pk_sg_div.h"
 
 #define SG_MASK (PK_SG_CHUNKS - 1u)
 
@@ -47,6 +48,26 @@
 #endif
 
 /* ------------------------------------------------------------------ prep */
+
+/* x >> b (b a constant, 0 < b < 32) as a byte move and a shift of the word
+ * or byte that holds the bits kept: an 8-bit core's shift of a 32-bit word
+ * by a constant is otherwise a loop of b 4-byte steps (~7 cycles a bit, at
+ * -Os and -O2 alike), ~100 cycles for the >> 14 of a Q30 product. Exact for
+ * every x; on a flash-first board the plain shift (the loop is smaller). */
+static inline uint32_t shr32(uint32_t x, unsigned b)
+{
+#if PK_FLASH_FIRST
+    return x >> b;
+#else
+    if (b > 24u)
+        return (uint32_t)((uint8_t)(x >> 24) >> (b - 24u));
+    if (b > 16u)
+        return (uint32_t)((uint16_t)(x >> 16) >> (b - 16u));
+    if (b > 8u && b < 16u)
+        return ((x >> 16) << (16u - b)) | (uint32_t)((uint8_t)(x >> 8) >> (b - 8u));
+    return x >> b;
+#endif
+}
 
 /* Squares of speeds, (µm/s)^2 Q8. */
 static SG_PREP uint64_t sq64(uint32_t v) { return (uint64_t)v * v; }
@@ -66,11 +87,26 @@ static SG_PREP uint64_t msub64(uint64_t base, uint32_t a, uint32_t b)
     return base > ab ? base - ab : 0u;
 }
 
-/* floor(num / den) (den > 0), at most lim. */
-static SG_PREP uint32_t div64_max(uint64_t num, uint64_t den, uint32_t lim)
+/* floor((hi 2^32 + lo) / d) for 0 < d <= 2^31, UINT32_MAX where it does not
+ * fit 32 bits: shift and subtract on an 8-bit core (pk_sg_div.h: a bit a
+ * step, ~850 AVR cycles at most against ~1,900-2,500 for libgcc's 64-bit
+ * division), the C division elsewhere. */
+static SG_PREP uint32_t div32_sat(uint32_t hi, uint32_t lo, uint32_t d)
 {
-    const uint64_t q = num / den;
-    return q > lim ? lim : (uint32_t)q;
+#if PK_SOFT_DIV
+    return pk_sg_div32_soft(hi, lo, d);
+#else
+    const uint64_t q = (((uint64_t)hi << 32) | lo) / d;
+    return q > UINT32_MAX ? UINT32_MAX : (uint32_t)q;
+#endif
+}
+
+/* floor(num / den) (0 < den <= 2^31), at most lim (a quotient of 2^32 or
+ * more is above every lim). */
+static SG_PREP uint32_t div64_max(uint64_t num, uint32_t den, uint32_t lim)
+{
+    const uint32_t q = div32_sat((uint32_t)(num >> 32), (uint32_t)num, den);
+    return q > lim ? lim : q;
 }
 
 /* a b / 2^24 rounded to nearest (a segment's length from its speed sum:
@@ -94,14 +130,21 @@ static SG_PREP void clock_set(struct pk_stepgen *sg, uint32_t vsum)
     if (vsum == sg->ck_vsum)
         return;
     sg->ck_vsum = vsum;
-    /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19) */
-    /* (32-bit tests: f 2^5 < 2^29, and 2^k v > f <=> v > floor(f / 2^k)) */
+    /* kq = tick_hz 2^(13 + ks) / vsum < 2^32 <=> vsum > tick_hz 2^(ks - 19),
+     * i.e. vsum > hi below (f 2^5 < 2^29, and 2^k v > f <=> v > floor(f / 2^k)) */
     const uint32_t f = sg->tick_hz;
-    uint8_t ks = vsum > (f << 5) ? 24u : vsum > (f >> 3) ? 16u : vsum > (f >> 11) ? 8u : 0u;
-    uint64_t q = ((uint64_t)f << (13u + ks)) / vsum;
-    if (q > UINT32_MAX)
-        q = UINT32_MAX; /* (only for vsum < 2^13 at ks = 0: below 0.5 mm/min) */
-    sg->ck_kq = (uint32_t)q;
+    /* f 2^(13 + ks) = hi 2^32 + lo, divided in 32-bit words (vsum < 2^25:
+     * two speeds < 2^24); from ks = 24 down, (hi, lo) shifted a byte at a
+     * time (byte moves on an 8-bit core, where f << 29 was a 29-step loop);
+     * the quotient saturates only at ks = 0, for vsum < 2^13 (below 0.5 mm/min) */
+    uint8_t ks = 24u;
+    uint32_t hi = f << 5, lo = 0u;
+    while (ks > 0u && vsum <= hi) {
+        lo = (lo >> 8) | (hi << 24);
+        hi >>= 8;
+        ks = (uint8_t)(ks - 8u);
+    }
+    sg->ck_kq = div32_sat(hi, lo, vsum);
     sg->ck_ks = ks;
 }
 
@@ -135,23 +178,28 @@ static SG_PREP uint64_t clock_time(const struct pk_stepgen *sg, uint32_t d_q8)
  * < 2^31; eps < r T / 8 <= 2^28 (Q16). */
 static SG_PREP uint64_t at_time(uint64_t tau64, uint32_t T, uint32_t invT_q30, uint32_t r_q15, bool accel)
 {
-    if (T == 0 || (tau64 >> 16) >= T || r_q15 == 0)
+    /* ((tau64 >> 16) >= T, with the 64-bit shift only above 2^32: on an
+     * 8-bit core a 64-bit shift is a library loop) */
+    if (T == 0 || r_q15 == 0)
+        return tau64;
+    if (tau64 > UINT32_MAX ? T < 0x10000u || (tau64 >> 16) >= T : ((uint32_t)tau64 >> 16) >= T)
         return tau64;
     /* from here tau < T 2^16 < 3 2^30 (T below): 32 bits, and so is the
      * result (eps < 2^28) */
     const uint32_t tau = (uint32_t)tau64, t = tau >> 16;
     if (r_q15 > 0xFFFFu)
         r_q15 = 0xFFFFu;
-    uint32_t u_q16 = (t * invT_q30) >> 14;
+    /* (r_q15 < 2^16 and w_q16 < 2^16: a 16x16 product) */
+    uint32_t u_q16 = shr32(t * invT_q30, 14u);
     uint32_t w_q16 = (uint32_t)(uint16_t)u_q16 * (uint16_t)(0x10000u - u_q16) >> 16;
-    uint32_t eps = (((r_q15 * w_q16) >> 14) * T) >> 2;
+    uint32_t eps = (shr32((uint32_t)(uint16_t)r_q15 * (uint16_t)w_q16, 14u) * T) >> 2;
     /* first-order term: eps r |2u - 1| / 2 = (eps / 2^12) (r m / 2^20),
      * m_q16 = |2u - 1| */
     uint32_t m_q16 = 2u * u_q16 > 0x10000u ? 2u * u_q16 - 0x10000u : 0x10000u - 2u * u_q16;
     if (m_q16 > 0xFFFFu)
         m_q16 = 0xFFFFu;
-    uint32_t k = ((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16) >> 20;   /* Q11 */
-    uint32_t fix = (eps >> 12) * k;
+    uint32_t k = shr32((uint32_t)(uint16_t)r_q15 * (uint16_t)m_q16, 20u);   /* Q11 */
+    uint32_t fix = shr32(eps, 12u) * k;
     if ((2u * u_q16 > 0x10000u) == accel)
         eps = eps > fix ? eps - fix : 0u;
     else
@@ -182,14 +230,23 @@ static SG_PREP void ev_span(const struct pk_stepgen *sg, uint32_t d_first, uint3
 static SG_PREP uint32_t inv_q30(uint32_t T) { return ((uint32_t)1 << 30) / (T ? T : 1u); }
 
 /* |dv| / (vsum / 2) in Q15, for 0 <= dv <= vsum: both scaled to 16 bits
- * so that the division is 32-bit. */
+ * so that the division is 32-bit (dv <= vsum < 2^16 after it: a 16-step
+ * division of 16-bit words on an 8-bit core, ~250 AVR cycles against ~650
+ * for libgcc's 32-bit one; a flash-first board keeps the library's, already
+ * linked). */
 static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 {
     while (vsum >= 65536u) {
         vsum >>= 1;
         dv >>= 1;
     }
-    return (dv << 16) / (vsum ? vsum : 1u);
+    if (vsum == 0u)
+        vsum = 1u;
+#if PK_SOFT_DIV && !PK_FLASH_FIRST
+    if (dv <= vsum)
+        return pk_sg_frac_q16_soft((uint16_t)dv, (uint16_t)vsum);
+#endif
+    return (dv << 16) / vsum;
 }
 
 /* The block's cached speeds (isqrt only when the plan changed them). */
@@ -230,6 +287,7 @@ void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t 
      * the saturating helper gives the plain quotient) */
     sg->g_max_q24 = pk_muldiv_u32(8u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
     sg->kdv_q24 = pk_muldiv_u32(16u * sg->seg_max, (uint32_t)1 << 24, tick_hz);
+    sg->invT_max_q30 = inv_q30(sg->seg_max);
     sg->head = 0u;
     sg->tail = 0u;
     sg->busy = false;
@@ -365,7 +423,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
      * at its speed, no event in them; lead < L) */
     const uint32_t span = b->len_q8 - b->lead_q8;
     sg->ev_q = span / b->events;
-    sg->ev_r = span % b->events;
+    sg->ev_r = span - sg->ev_q * b->events; /* (one division, not two) */
     sg->ev_next = b->lead_q8 + sg->ev_q;
     sg->ev_rem = sg->ev_r;
     /* The segment: seg_max (2 ms by default), or shorter so that at twice the nominal speed
@@ -395,7 +453,7 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     if (sg->dv_q4 == 0)
         sg->dv_q4 = 1;
     sg->seg_ticks = seg;
-    sg->invT_q30 = inv_q30(seg);
+    sg->invT_q30 = seg == sg->seg_max ? sg->invT_max_q30 : inv_q30(seg);
     /* longer segments (x2, x4) where the event limit and the recurrence's
      * range allow: see seg_level */
     uint8_t lv = 0;
@@ -476,9 +534,10 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
         if (mac64(v12, two_a, se - s0) > line0) {
             /* where v^2 = v0^2 + 2a(s - s0) (or v0^2 if cruising) meets the
              * line: accelerate (or cruise) until there: the two lines
-             * meet, or cruise meets the line */
-            const uint64_t den = v1 > v0 ? 2u * (uint64_t)two_a : (two_a ? two_a : 1u);
-            ds = div64_max(line0 - v02, den, L - s0);
+             * meet, or cruise meets the line ((line0 - v0^2) / 4a as
+             * floor(floor(x / 2) / 2a), a divisor below 2^31) */
+            const uint64_t gap = line0 - v02;
+            ds = div64_max(v1 > v0 ? gap >> 1 : gap, two_a ? two_a : 1u, L - s0);
             if (ds == 0)
                 ds = 1;
             v1 = v1 > v0 ? pk_isqrt64(mac64(v02, two_a, ds)) : v0;
@@ -492,16 +551,25 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
         /* the block ends inside this segment: end exactly there, at the speed
          * the constant acceleration reaches there */
         ds = L - s0;
-        const uint64_t e2 = v1 > v0 ? mac64(v02, two_a, ds) : v1 < v0 ? msub64(v02, two_a, ds) : v02;
-        uint32_t vl = pk_isqrt64(e2);
-        if (v1 > v0 && vl > v1)
-            vl = v1;
-        if (v1 < v0 && vl < v1)
-            vl = v1;
-        v1 = vl;
-        v12 = 0;
+        /* (cruising, v1 = v0 and v0^2 is v_sq: the root is v0; when v1^2
+         * is known and the square reaches it, the root is clamped to v1) */
+        if (v1 != v0) {
+            const uint64_t e2 = v1 > v0 ? mac64(v02, two_a, ds) : msub64(v02, two_a, ds);
+            if (!(v1 > v0 && v12 != 0u && e2 >= v12)) {
+                uint32_t vl = pk_isqrt64(e2);
+                if (v1 > v0 && vl > v1)
+                    vl = v1;
+                if (v1 < v0 && vl < v1)
+                    vl = v1;
+                if (vl != v1)
+                    v12 = 0;
+                v1 = vl;
+            }
+        }
         full = false;
     }
+    if (v12 == 0u && v1 == v0)
+        v12 = v02; /* (cruising: the square is kept) */
     sp->s0 = s0;
     sp->v0 = v0;
     sp->v1 = v1;
@@ -580,7 +648,10 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
     if (n > 0) {
         /* r = |v1 - v0| / vseg, Q15 (<= 2^16: the speed at most doubles or
          * halves around the mean) */
-        const uint32_t T = full ? sg->seg_ticks << lv : (uint32_t)(seg_q16 >> 16);
+        /* (the 64-bit shift only above 2^32) */
+        const uint32_t T = full                     ? sg->seg_ticks << lv
+                           : seg_q16 > UINT32_MAX ? (uint32_t)(seg_q16 >> 16)
+                                                  : (uint32_t)seg_q16 >> 16;
         const uint32_t invT = full ? sg->invT_q30 >> lv : inv_q30(T);
         const uint32_t r_q15 = v0 == v1 ? 0u : ratio_q15(v0 > v1 ? v0 - v1 : v1 - v0, vsum);
         uint64_t tt[2];
@@ -605,10 +676,10 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
                  * 16x16 products (mean < 2^31, r_q15 <= 2^16 - 1, per <= 2^16) */
                 const uint32_t r16 = r_q15 > 0xFFFFu ? 0xFFFFu : r_q15;
                 uint32_t ch = ((mean >> 16) * r16 << 1)
-                              + ((uint32_t)(uint16_t)mean * (uint16_t)r16 >> 15);
+                              + shr32((uint32_t)(uint16_t)mean * (uint16_t)r16, 15u);
                 if (ch > mean)
                     ch = mean;
-                uint32_t per = ((mean >> 16) * invT) >> 14;
+                uint32_t per = shr32((mean >> 16) * invT, 14u);
                 if (per > 0x10000u)
                     per = 0x10000u;
                 int32_t a = (int32_t)((ch >> 16) * per + (((ch & 0xFFFFu) * per) >> 16));
@@ -617,7 +688,10 @@ static SG_PREP bool seg_events(struct pk_stepgen *sg, const struct pk_block *b, 
             /* c1 = mean - ceil(A n / 2); the ramp's sum is within n of span
              * (< 2^31), so it is computed modulo 2^32 */
             int32_t an = A * (int32_t)n;
-            int32_t q = an >= 0 ? (an + 1) / 2 : -((-an) / 2);
+            /* (halved as unsigned: the signed division by 2 was a library
+             * call on an 8-bit core) */
+            int32_t q = an >= 0 ? (int32_t)((uint32_t)(an + 1) >> 1)
+                                : -(int32_t)((0u - (uint32_t)an) >> 1);
             c1 = (int32_t)mean - q;
             uint32_t sum = (n - 1u) * (uint32_t)c1 + (uint32_t)A * ((n * (n - 1u)) / 2u);
             rem = span - sum;

@@ -236,6 +236,7 @@ struct pk_stepgen {
     uint8_t ck_ks;             /**< d is (d ck_kq) >> ck_ks (ticks Q16, d µm Q8) */
     uint32_t g_max_q24;        /**< g_q24 of a seg_max segment */
     uint32_t kdv_q24;          /**< seg_max * 16 / tick_hz, Q24: dv_q4 = accel * this */
+    uint32_t invT_max_q30;     /**< 2^30 / seg_max (a block's invT_q30 at full length) */
 
     /* ---- input watches (MAIN arms and clears them under irq_save; the ISR
      *      and the edge callback read them and set fired / lock) ---- */
