@@ -15,13 +15,7 @@
 int th_main(int argc, char **argv);
 
 static uint64_t rng = 0x9E3779B97F4A7C15ull;
-static uint64_t xr(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return rng;
-}
+static uint64_t xr(void) { return th_xorshift64(&rng); }
 
 /* um_conv against pk_um_to_steps and the rounded division it replaces */
 static unsigned conv_bad(pk_um_t um, pk_spmm_q16_t spmm)

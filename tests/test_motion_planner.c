@@ -13,13 +13,7 @@
 int th_main(int argc, char **argv);
 
 static uint64_t rng = 88172645463325252ull;
-static uint64_t xr(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return rng;
-}
+static uint64_t xr(void) { return th_xorshift64(&rng); }
 
 static void test_isqrt64_is_the_exact_floor_everywhere(void)
 {

@@ -12,13 +12,7 @@
 int th_main(int argc, char **argv);
 
 static uint64_t rng = 0x9E3779B97F4A7C15ull;
-static uint64_t xr(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return rng;
-}
+static uint64_t xr(void) { return th_xorshift64(&rng); }
 
 static uint32_t div32_want(uint32_t hi, uint32_t lo, uint32_t d)
 {

@@ -79,13 +79,7 @@ static void on_ev(void *ctx, uint8_t ev, const pk_um_t p[PK_AXES])
 }
 
 static uint64_t rng = 88172645463325252ull;
-static uint32_t rnd(void)
-{
-    rng ^= rng << 13;
-    rng ^= rng >> 7;
-    rng ^= rng << 17;
-    return (uint32_t)(rng >> 16);
-}
+static uint32_t rnd(void) { return (uint32_t)(th_xorshift64(&rng) >> 16); }
 static int32_t rr(int32_t lo, int32_t hi) { return lo + (int32_t)(rnd() % (uint32_t)(hi - lo + 1)); }
 
 /* A stroke of n vertices from the origin: mostly short legs turning a little

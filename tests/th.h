@@ -42,4 +42,15 @@ void th_print(const char *s);
 
 #define TH_COUNT(a) ((unsigned)(sizeof(a) / sizeof((a)[0])))
 
+/** Marsaglia's xorshift64 (13, 7, 17): the tests' reproducible pseudo-random
+ *  operands. Advances *state (never 0) and returns it. */
+static inline uint64_t th_xorshift64(uint64_t *state)
+{
+    uint64_t x = *state;
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return *state = x;
+}
+
 #endif
