@@ -68,12 +68,10 @@ def main():
     cyc = [int(r[1]) for r in rows]
     out = subprocess.run(['avr-addr2line', '-f', '-a', '-e', elf] + addrs, capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    where = {}
-    i = 0
-    while i + 2 < len(out) + 1 and i < len(out):
+    where = {}  # (avr-addr2line -a -f: address, function, file:line per address)
+    for i in range(0, len(out) - 2, 3):
         a, fn, loc = out[i], out[i + 1], out[i + 2]
         where[int(a, 16)] = (fn, os.path.basename(loc.split(' ')[0]))
-        i += 3
     tot = sum(cyc)
     if tot == 0:
         sys.exit('avr_profile: no main-loop cycles measured')

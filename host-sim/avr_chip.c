@@ -434,6 +434,16 @@ static uint16_t sp_of(const avr_t *avr)
     return (uint16_t)(avr->data[R_SPL] | (avr->data[R_SPH] << 8));
 }
 
+/* The return address (a byte address in flash) on top of the stack at sp:
+ * pushed high byte last, so it starts at SP + 1, address_size bytes. */
+static uint32_t ret_at(const avr_t *avr, uint16_t sp)
+{
+    uint32_t ra = 0;
+    for (unsigned k = 1; k <= avr->address_size; k++)
+        ra = (ra << 8) | avr->data[(uint16_t)(sp + k)];
+    return 2u * ra;
+}
+
 /* The main-loop histogram with library routines charged to their callers:
  * a shadow stack of the calls under way at the main level (CALL, RCALL,
  * ICALL, EICALL), unwound by RET to the entry whose return address it
@@ -464,11 +474,7 @@ static int hist_op(const avr_t *avr, avr_flashaddr_t pc0, uint32_t *ret)
         return 2;
     if (op != 0x9508u)
         return 0;
-    uint16_t sp = sp_of(avr);
-    uint32_t ra = 0; /* pushed high byte last: at SP + 1 */
-    for (unsigned k = 1; k <= avr->address_size; k++)
-        ra = (ra << 8) | avr->data[(uint16_t)(sp + k)];
-    *ret = 2u * ra;
+    *ret = ret_at(avr, sp_of(avr));
     return 1;
 }
 
@@ -562,10 +568,7 @@ static void step(struct pk_avrchip *c)
             f->active = 1;
             f->level = c->n_frames;
             f->sp = sp;
-            uint32_t ra = 0;             /* pushed high byte last: at SP + 1 */
-            for (unsigned k = 1; k <= avr->address_size; k++)
-                ra = (ra << 8) | avr->data[(uint16_t)(sp + k)];
-            f->ret = 2u * ra;
+            f->ret = ret_at(avr, sp);
             f->t0 = avr->cycle;
             f->isr0 = c->nest_acc[f->level];
         }
