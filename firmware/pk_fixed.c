@@ -23,7 +23,7 @@ uint32_t pk_isqrt64(uint64_t x)
      *   - steps 31 and 32 (only for x >= 2^56, all eight bytes) in 64 bits.
      * The result is the exact floor for every x (tests/test_motion_planner.c,
      * and on the chip bench/avr/avr_arith_cycles.c). */
-    const uint32_t hi = (uint32_t)(x >> 32), lo = (uint32_t)x;
+    const uint32_t hi = pk_hi32(x), lo = (uint32_t)x;
     const uint8_t by[8] = { (uint8_t)(hi >> 24), (uint8_t)(hi >> 16), (uint8_t)(hi >> 8), (uint8_t)hi,
                             (uint8_t)(lo >> 24), (uint8_t)(lo >> 16), (uint8_t)(lo >> 8), (uint8_t)lo };
     uint8_t k = 0;

@@ -55,6 +55,24 @@ typedef int32_t pk_umf_t;
 typedef int32_t pk_q30_t;
 #define PK_Q30_ONE ((pk_q30_t)1 << 30)
 
+/** The high 32 bits of x, (uint32_t)(x >> 32). On the AVR a register
+ *  move: avr-gcc 5.4 makes even this constant 64-bit shift a call of
+ *  libgcc's __lshrdi3 (~80 cycles); the union reads the upper word of the
+ *  little-endian value. */
+static inline uint32_t pk_hi32(uint64_t x)
+{
+#if defined(__AVR__) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    union {
+        uint64_t v;
+        uint32_t w[2];
+    } u;
+    u.v = x;
+    return u.w[1];
+#else
+    return (uint32_t)(x >> 32);
+#endif
+}
+
 /** Round x / 2^s to nearest, ties away from zero. 1 <= s <= 31, |x| < 2^31. */
 static inline int32_t pk_rshift_round32(int32_t x, unsigned s)
 {

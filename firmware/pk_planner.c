@@ -88,9 +88,29 @@
  */
 #include <string.h>
 #include "pk_planner.h"
+#include "pk_sg_div.h"
 
-/** Speed^2 Q4 from µm/min: (v / 60)^2 * 16 = v^2 / 225 (v < 2^26). */
-static pk_v2_q4_t v2_of_um_min(uint32_t v) { return ((uint64_t)v * v + 112u) / 225u; }
+/** Speed^2 Q4 from µm/min: (v / 60)^2 * 16 = v^2 / 225, rounded (v < 2^26). */
+static pk_v2_q4_t v2_of_um_min(uint32_t v)
+{
+#if PK_SOFT_DIV
+    /* Without the 64-bit division (~1,600 AVR cycles; this: three 32 x
+     * 32-bit products): v = 15 a + b (0 <= b < 15), so v^2 + 112 = 225 a^2
+     * + 30 a b + b^2 + 112 and the quotient is a^2 + floor((30 a b + b^2 +
+     * 112) / 225), whose numerator is below 2^31 (a < 2^26 / 15, b <= 14).
+     * Both divisions by constants are products: floor(v / 15) = v M >> 35
+     * with M = 0x88888889 for every v < 2^32 (M 15 - 2^35 = 7 <= 2^3), and
+     * floor(y / 225) = y M' >> 39 with M' = 2,443,359,173 for every y <
+     * 2^31 (M' 225 - 2^39 = 37 <= 2^8). */
+    const uint32_t a = pk_hi32((uint64_t)v * 0x88888889u) >> 3;
+    const uint32_t b = v - 15u * a;
+    const uint32_t y = 30u * a * b + b * b + 112u;
+    const uint32_t a2 = a; /* (a second name: avr-gcc then multiplies 32 x 32 -> 64, not 64 x 64) */
+    return (uint64_t)a * a2 + (pk_hi32((uint64_t)y * 2443359173u) >> 7);
+#else
+    return ((uint64_t)v * v + 112u) / 225u;
+#endif
+}
 
 /** 2 * a * len in Q4 speed^2 (len in µm Q8). */
 static pk_v2_q4_t two_a_s(pk_um_s2_t a, uint32_t len_q8)
@@ -151,24 +171,23 @@ static unsigned mul_fits63(uint64_t x, uint64_t y)
 #endif
 }
 
-pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
-                                  uint8_t axes, pk_um_s2_t a, pk_um_t delta)
+/* The junction's cos(phi) = u1.u2 in Q30 (clamped to +-1) and h = (1 - d)/2
+ * = sin^2(phi/2) in Q30 (0..2^30), as pk_planner_junction_v2 takes them. */
+static uint32_t junction_h(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes, int32_t *d_out)
 {
-    /* d = u1.u2 in Q30. The turn angle phi between the directions has
-     * cos(phi) = d; Grbl's theta = pi - phi, so sin(theta/2) = cos(phi/2) and
-     * 1 - sin(theta/2) = (1 - cos^2(phi/2)) / (1 + cos(phi/2))
-     *                  = h / (1 + s),  h = (1 - d)/2 = sin^2(phi/2), s = cos(phi/2).
-     * Hence v^2 = a*delta * s * (1 + s) / h, with h computed directly from d,
-     * which keeps its precision for the small turns of dense polylines. */
     int64_t dd = 0;
     for (unsigned i = 0; i < axes; i++)
         if (u1[i] != 0 && u2[i] != 0) /* (a still axis adds nothing) */
             dd += (int64_t)u1[i] * u2[i];
     dd = pk_rshift_round64(dd, 30);
-    int32_t d = dd > PK_Q30_ONE ? PK_Q30_ONE : dd < -PK_Q30_ONE ? -PK_Q30_ONE : (int32_t)dd;
-    uint32_t h = ((uint32_t)PK_Q30_ONE - (uint32_t)d) / 2u; /* Q30, 0..2^30 */
-    if (h == 0)
-        return UINT64_MAX;                       /* straight on: no junction limit */
+    const int32_t d = dd > PK_Q30_ONE ? PK_Q30_ONE : dd < -PK_Q30_ONE ? -PK_Q30_ONE : (int32_t)dd;
+    *d_out = d;
+    return ((uint32_t)PK_Q30_ONE - (uint32_t)d) / 2u; /* Q30, 0..2^30 */
+}
+
+/* pk_planner_junction_v2 from its d and h (h > 0). */
+static pk_v2_q4_t junction_of(int32_t d, uint32_t h, pk_um_s2_t a, pk_um_t delta)
+{
     uint32_t s2 = ((uint32_t)PK_Q30_ONE + (uint32_t)d) / 2u; /* cos^2(phi/2), Q30 */
     uint32_t s = pk_isqrt64((uint64_t)s2 << 30);             /* Q30 */
     if (s == 0 || delta == 0)
@@ -188,6 +207,119 @@ pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[
     default:
         return ad > (UINT64_MAX >> 1) / q ? UINT64_MAX : (ad * q) >> 16;
     }
+}
+
+pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                                  uint8_t axes, pk_um_s2_t a, pk_um_t delta)
+{
+    /* d = u1.u2 in Q30. The turn angle phi between the directions has
+     * cos(phi) = d; Grbl's theta = pi - phi, so sin(theta/2) = cos(phi/2) and
+     * 1 - sin(theta/2) = (1 - cos^2(phi/2)) / (1 + cos(phi/2))
+     *                  = h / (1 + s),  h = (1 - d)/2 = sin^2(phi/2), s = cos(phi/2).
+     * Hence v^2 = a*delta * s * (1 + s) / h, with h computed directly from d,
+     * which keeps its precision for the small turns of dense polylines. */
+    int32_t d;
+    const uint32_t h = junction_h(u1, u2, axes, &d);
+    if (h == 0)
+        return UINT64_MAX; /* straight on: no junction limit */
+    return junction_of(d, h, a, delta);
+}
+
+/* x >= m 2^e and x < (m + 1) 2^e with m < 2^8 (m >= 2^7 where x >= 2^7):
+ * x's top 8 bits, for a product of several values bounded in 32 bits. (A
+ * floor of a floor is the floor of the whole shift: 8- and 16-bit steps
+ * first, register moves on an 8-bit core, then at most 8 one-bit steps of a
+ * 16-bit word.) */
+static uint8_t mant8(uint32_t w, uint8_t *e)
+{
+    uint8_t s = 0u;
+    if (w >= ((uint32_t)1 << 24)) {
+        w >>= 16;
+        s = 16u;
+    } else if (w >= ((uint32_t)1 << 16)) {
+        w >>= 8;
+        s = 8u;
+    }
+    uint16_t v = (uint16_t)w; /* < 2^16 */
+    while (v >= 256u) {
+        v = (uint16_t)(v >> 1);
+        s++;
+    }
+    *e = s;
+    return (uint8_t)v;
+}
+
+/* mant8 of a 64-bit value (e up to 56). */
+static uint8_t mant8_64(uint64_t x, uint8_t *e)
+{
+    const uint32_t hi = pk_hi32(x), lo = (uint32_t)x;
+    if (hi == 0u)
+        return mant8(lo, e);
+    uint8_t m;
+    if (hi >= 256u) {
+        m = mant8(hi, e);
+        *e = (uint8_t)(*e + 32u);
+    } else {
+        m = mant8((hi << 24) | (lo >> 8), e); /* floor(x / 2^8) < 2^32 */
+        *e = (uint8_t)(*e + 8u);
+    }
+    return m;
+}
+
+pk_v2_q4_t pk_planner_junction_min_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                                      uint8_t axes, pk_um_s2_t a, pk_um_t delta, pk_v2_q4_t cap,
+                                      bool *cap_below)
+{
+    int32_t d;
+    const uint32_t h = junction_h(u1, u2, axes, &d);
+    if (h == 0) {
+        *cap_below = cap != UINT64_MAX;
+        return cap;
+    }
+    /* A lower bound J_lb of the junction limit J (pk_planner_junction_v2):
+     * when it is above cap, so is J, and the answer is cap without J's root
+     * (~2,200 AVR cycles) and 64-bit division (~1,400). On the dense
+     * drawings a turn that is not a blend's is a few degrees, and J is 4 to
+     * 16 times the curvature limit it is compared with (bench: 4,400 of
+     * 4,573 sharp vertices of the svg2gcode curves, 4,560 of 4,572 of the
+     * policy's checks). For d >= 0 (a turn up to 90 degrees), k = 2^30 - s2
+     * <= 2^29, s2 = (2^30 + d) / 2:
+     *  - s = floor(sqrt(s2 2^30)) >= s2 (s2 <= 2^30), so r = floor(s (2^30 +
+     *    s) / 2^30) >= s2 + floor(s2^2 / 2^30) >= 2^31 - 3k (s2^2 / 2^30 =
+     *    2^30 - 2k + k^2 / 2^30): r_lb = 2^31 - 3k;
+     *  - q = floor(r 2^20 / h) >= (r_lb 2^20 - h + 1) / h >= X / h with X =
+     *    (r_lb - floor(h / 2^20) - 1) 2^20 (h < (floor(h / 2^20) + 1) 2^20);
+     *  - J = floor(ad q / 2^16) (or saturated, larger): J > cap when
+     *    ad X >= (cap + 1) 2^16 h, which 8-bit mantissas (x >= m 2^e,
+     *    x < (m + 1) 2^e; each within 1/128 of x, 4 % over the whole test)
+     *    decide in 32 bits: ma md mx 2^(ea + ed + ex + 20) >= (mc + 1) (mh +
+     *    1) 2^(ec + eh + 16), the left product < 2^24, the right <= 2^16.
+     * Exact either way: J itself is computed unless the bound decides. */
+    if (d >= 0 && cap != UINT64_MAX && delta > 0 && a != 0) {
+        const uint32_t k = (uint32_t)PK_Q30_ONE - ((uint32_t)PK_Q30_ONE + (uint32_t)d) / 2u;
+        const uint32_t xm = ((uint32_t)1 << 31) - 3u * k - (h >> 20) - 1u; /* >= 2^29 - 2^10 - 1 */
+        uint8_t ea, ed, ex, ec, eh;
+        const uint8_t ma = mant8(a, &ea), md = mant8((uint32_t)delta, &ed), mx = mant8(xm, &ex);
+        const uint16_t mc = (uint16_t)(mant8_64(cap + 1u, &ec) + 1u), mh = (uint16_t)(mant8(h, &eh) + 1u);
+        const uint32_t lhs = (uint32_t)(uint16_t)(ma * md) * mx, rhs = (uint32_t)mc * mh;
+        const int e = (int)ea + (int)ed + (int)ex + 20 - ((int)ec + (int)eh + 16);
+        /* lhs 2^e >= rhs, in 32 bits: for e >= 0, lhs >= ceil(rhs / 2^e)
+         * (beyond e = 16, lhs >= 1 > rhs / 2^e); for e < 0, floor(lhs /
+         * 2^-e) >= rhs (the floor only lowers the side that must be larger;
+         * beyond -e = 23 it is 0 < rhs) */
+        bool above;
+        if (e >= 0)
+            above = e > 16 || lhs >= ((rhs + (((uint32_t)1 << e) - 1u)) >> e);
+        else
+            above = e > -24 && (lhs >> (unsigned)-e) >= rhs;
+        if (above) {
+            *cap_below = true;
+            return cap;
+        }
+    }
+    const pk_v2_q4_t j = junction_of(d, h, a, delta);
+    *cap_below = cap < j;
+    return cap < j ? cap : j;
 }
 
 /* |u2 - u1| in Q30, from the components' squares in Q56 (|d| <= 2^31:
@@ -220,7 +352,18 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
      * blend's chord cannot hide a large kink behind the long one */
     uint64_t lmin = l1_q8 < l2_q8 ? l1_q8 : l2_q8;
     uint64_t num = (uint64_t)a * (2u * lmin);               /* < 2^27 * 2^32 */
-    uint64_t qt = num / du;
+    uint64_t qt;
+#if PK_SOFT_DIV
+    /* a few thousand at most (a ~2^20 µm/s^2, a chord of 2^16 µm Q8, a
+     * turn of 2^25 in Q30): one step per quotient bit (pk_sg_div32_soft,
+     * ~500 AVR cycles here) where the quotient fits 32 bits and du 2^31
+     * (|u2 - u1| <= 2: du exceeds 2^31 only by the unit vectors' rounding),
+     * libgcc's 64-bit division (~1,100) otherwise */
+    if (du <= ((uint64_t)1 << 31) && pk_hi32(num) < (uint32_t)du)
+        qt = pk_sg_div32_soft(pk_hi32(num), (uint32_t)num, (uint32_t)du);
+    else
+#endif
+        qt = num / du;
     return qt > (UINT64_MAX >> 25) ? UINT64_MAX : qt << 25;
 }
 
@@ -443,9 +586,9 @@ int pk_planner_add_line(struct pk_planner *p, struct pk_mq *q, const int32_t d_q
         pk_v2_q4_t turn; /* the cap that comes from turning sideways */
         if (flags & PK_PLAN_SHARP) {
             pk_um_s2_t a = p->prev_accel < b->accel ? p->prev_accel : b->accel;
-            pk_v2_q4_t grbl = pk_planner_junction_v2(p->prev_u, u, axes, a, p->lim.junction_dev_um);
-            vj = min64(grbl, curv);
-            turn = curv < grbl ? curv : UINT64_MAX; /* Grbl's corner model rules */
+            bool curv_below;
+            vj = pk_planner_junction_min_v2(p->prev_u, u, axes, a, p->lim.junction_dev_um, curv, &curv_below);
+            turn = curv_below ? curv : UINT64_MAX; /* else Grbl's corner model rules */
         } else {
             vj = min64(curv, pk_planner_kink_v2(p->prev_u, u, axes, jump_of(a_turn, along)));
             turn = vj;

@@ -182,6 +182,15 @@ pk_v2_q4_t pk_planner_nominal_v2(const struct pk_planner *p, const struct pk_blo
 pk_v2_q4_t pk_planner_junction_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
                                   uint8_t axes, pk_um_s2_t a, pk_um_t delta);
 
+/** min(pk_planner_junction_v2(u1, u2, axes, a, delta), cap), the same value,
+ *  and *cap_below = whether cap is below that junction limit. Cheaper when
+ *  a bound shows the junction limit above cap: then it is not computed
+ *  (its root and 64-bit division; the caller's cap, e.g. the curvature
+ *  limit, rules). */
+pk_v2_q4_t pk_planner_junction_min_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES],
+                                      uint8_t axes, pk_um_s2_t a, pk_um_t delta, pk_v2_q4_t cap,
+                                      bool *cap_below);
+
 /** The curvature limit (Q4): the largest v^2 such that turning from u1 to u2
  *  over the shorter of two moves of lengths l1, l2 (µm Q8) needs at most the
  *  acceleration a sideways: v^2 <= a min(l1, l2) / |u2 - u1| (a polygon with

@@ -284,10 +284,12 @@ static bool kink_slower(const struct pk_stroke *st, const pk_q30_t u1[PK_AXES],
                         const pk_q30_t u2[PK_AXES], uint32_t l1_q8, uint32_t l2_q8, uint32_t cap,
                         int32_t cos_q30)
 {
-    pk_v2_q4_t kink = pk_planner_junction_v2(u1, u2, st->axes, st->dyn.a_min, st->dyn.delta_um);
-    pk_v2_q4_t kc = pk_planner_curvature_v2(u1, u2, st->axes, l1_q8, l2_q8, st->dyn.a_side);
-    if (kc < kink)
-        kink = kc;
+    /* the smaller of the junction and curvature limits (the junction's is
+     * computed only where a bound does not put it above the other) */
+    bool kc_below;
+    const pk_v2_q4_t kc = pk_planner_curvature_v2(u1, u2, st->axes, l1_q8, l2_q8, st->dyn.a_side);
+    const pk_v2_q4_t kink = pk_planner_junction_min_v2(u1, u2, st->axes, st->dyn.a_min, st->dyn.delta_um, kc,
+                                                       &kc_below);
     /* h = min(cap << 8, lmin) without the 38-bit shift: cap << 8 > lmin
      * exactly when cap > lmin >> 8 (integers); either way h <= lmin < 2^31 */
     uint32_t lmin = (l1_q8 < l2_q8 ? l1_q8 : l2_q8) / 2u;

@@ -4,11 +4,16 @@
  * give exactly what the plain C expressions they stand for give, on the
  * ranges their comments state: edges, ties and random values (the planner's
  * against the expressions they replaced, copied here). (The sources
- * are included, so the helpers are tested as compiled, not copies of them.)
+ * are included, so the helpers are tested as compiled, not copies of them,
+ * in their PK_SOFT_DIV=1 forms.)
  */
 #include <stdint.h>
 #include <string.h>
 #include "th.h"
+/* the forms an 8-bit core compiles (shift-and-subtract divisions where
+ * their quotients fit 32 bits), so the host tests the chip's arithmetic;
+ * the plain forms are the C expressions themselves */
+#define PK_SOFT_DIV 1
 #include "../firmware/pk_motion.c"
 #include "../firmware/pk_planner.c"
 
@@ -133,6 +138,83 @@ static void test_the_junction_and_curvature_limits_are_those_of_the_64_bit_expre
     TH_EXPECT_EQ(bad, 0);
 }
 
+/* the unit vector (Q30) along (c, s) in the XY plane */
+static void unit_near(pk_q30_t u[PK_AXES], int64_t c, int64_t s)
+{
+    int64_t d[PK_AXES] = { 0 };
+    d[0] = c;
+    d[1] = s;
+    pk_unit_q30(d, PK_AXES, u);
+}
+
+/* min(J, cap) and whether cap < J, for caps on both sides of J and at it:
+ * the bound that skips J must never decide wrongly */
+static unsigned junction_min_bad(const pk_q30_t u1[PK_AXES], const pk_q30_t u2[PK_AXES], uint8_t axes,
+                                 pk_um_s2_t a, pk_um_t delta, pk_v2_q4_t cap)
+{
+    const pk_v2_q4_t j = ref_junction(u1, u2, axes, a, delta);
+    bool below = false;
+    const pk_v2_q4_t m = pk_planner_junction_min_v2(u1, u2, axes, a, delta, cap, &below);
+    return m != (cap < j ? cap : j) || below != (cap < j);
+}
+
+static void test_the_junction_limit_against_a_cap_is_the_minimum_of_the_two(void)
+{
+    unsigned bad = 0, n = 0, below = 0;
+    for (int k = 0; k < 300000; k++) {
+        pk_q30_t u1[PK_AXES] = { 0 }, u2[PK_AXES] = { 0 };
+        uint8_t axes = 2;
+        if (k % 3 == 0) {
+            /* any vectors (and over 90 degree turns) */
+            axes = (uint8_t)(2u + xr() % (PK_AXES - 1u));
+            for (unsigned i = 0; i < axes; i++) {
+                u1[i] = rnd_u();
+                u2[i] = xr() % 2u ? rnd_u() : u1[i] + (pk_q30_t)(xr() % 2001u) - 1000;
+                if (u2[i] > PK_Q30_ONE || u2[i] < -PK_Q30_ONE)
+                    u2[i] = u1[i];
+            }
+        } else {
+            /* unit vectors a small turn apart (the dense drawings' vertices) */
+            const int64_t c = (int64_t)(xr() % 2000001u) - 1000000, s = (int64_t)(xr() % 2000001u) - 1000000;
+            const int64_t tc = (int64_t)(xr() >> (40u + xr() % 24u)), ts = (int64_t)(xr() >> (40u + xr() % 24u));
+            unit_near(u1, c, s);
+            unit_near(u2, c + (xr() % 2u ? tc : -tc), s + (xr() % 2u ? ts : -ts));
+        }
+        const pk_um_s2_t a = k % 5 == 0 ? (pk_um_s2_t)(xr() >> (xr() % 64u)) : (pk_um_s2_t)(1u + xr() % (1u << 27));
+        const pk_um_t delta = (pk_um_t)(k % 7 == 0 ? xr() >> 33 : xr() % 10001u);
+        const pk_v2_q4_t j = ref_junction(u1, u2, axes, a, delta);
+        pk_v2_q4_t caps[8] = { j, j - 1u, j + 1u, UINT64_MAX, 0u, xr() >> (xr() % 64u), j - (j >> 12), j + (j >> 12) };
+        if (j > 0u && j < UINT64_MAX) {
+            caps[6] = j - (j >> (8u + xr() % 20u));
+            caps[7] = j + (j >> (8u + xr() % 20u));
+        }
+        for (unsigned c = 0; c < TH_COUNT(caps); c++, n++) {
+            bad += junction_min_bad(u1, u2, axes, a, delta, caps[c]);
+            below += caps[c] < j;
+        }
+    }
+    TH_EXPECT(n >= 2400000u);
+    TH_EXPECT(below > n / 4u);
+    TH_EXPECT_EQ(bad, 0);
+}
+
+static void test_a_feed_s_speed_squared_is_the_rounded_quotient_of_the_64_bit_division(void)
+{
+    unsigned bad = 0, n = 0;
+    for (uint32_t v = 0; v < 200000u; v++, n++)
+        bad += v2_of_um_min(v) != ((uint64_t)v * v + 112u) / 225u;
+    for (uint32_t v = PK_UM_MIN_MAX - 100000u; v <= PK_UM_MIN_MAX + 100000u; v++, n++)
+        bad += v2_of_um_min(v) != ((uint64_t)v * v + 112u) / 225u;
+    for (int k = 0; k < 2000000; k++, n++) {
+        const uint32_t v = (uint32_t)(xr() >> 38); /* < 2^26 */
+        bad += v2_of_um_min(v) != ((uint64_t)v * v + 112u) / 225u;
+    }
+    for (uint32_t v = (1u << 26) - 100000u; v < (1u << 26); v++, n++)
+        bad += v2_of_um_min(v) != ((uint64_t)v * v + 112u) / 225u;
+    TH_EXPECT(n > 2400000u);
+    TH_EXPECT_EQ(bad, 0);
+}
+
 static void test_the_shares_of_an_acceleration_are_those_of_the_64_bit_products(void)
 {
     static const uint32_t sh[] = { 0u, 1u, 23170u, 32767u, 32768u };
@@ -152,6 +234,8 @@ int th_main(int argc, char **argv)
     static const struct th_case cases[] = {
         TH_CASE(test_one_division_gives_the_steps_and_the_steps_q8_of_a_coordinate),
         TH_CASE(test_the_junction_and_curvature_limits_are_those_of_the_64_bit_expressions),
+        TH_CASE(test_the_junction_limit_against_a_cap_is_the_minimum_of_the_two),
+        TH_CASE(test_a_feed_s_speed_squared_is_the_rounded_quotient_of_the_64_bit_division),
         TH_CASE(test_the_shares_of_an_acceleration_are_those_of_the_64_bit_products),
     };
     return th_run(cases, TH_COUNT(cases));
