@@ -1532,7 +1532,8 @@ void pk_grbl_poll(struct pk_grbl *g)
                 break;
             answer(g, 0);
         }
-        run_pending(g);
+        if (g->todo != 0) /* (its own first test: no call frame per byte read) */
+            run_pending(g);
         if (g->todo != 0 || pk_grbl_out_room(g) < PK_GRBL_ANSWER_MAX)
             break;
         if (g->mode != MODE_RUN)
