@@ -4,6 +4,46 @@
  */
 #include "pk_fixed.h"
 
+/* One step of pk_isqrt64's 32-bit phase: the top two bits of v into rem,
+ * then the trial t = 4 root + 1 (rem < 2^30 before the step: 4 rem + 3 <
+ * 2^32, t < 2^32 after it). */
+static inline __attribute__((always_inline)) void isqrt_step32(uint32_t *rem, uint32_t *t, uint8_t *v)
+{
+#if defined(__AVR__) && !defined(PK_NO_ASM)
+    /* avr-gcc makes the two bits' way into rem ~30 cycles and the step ~60;
+     * shifted through the carry, ~30 (the same operations) */
+    __asm__("lsl %2\n\trol %A0\n\trol %B0\n\trol %C0\n\trol %D0\n\t"
+            "lsl %2\n\trol %A0\n\trol %B0\n\trol %C0\n\trol %D0\n\t"
+            "cp %A0, %A1\n\tcpc %B0, %B1\n\tcpc %C0, %C1\n\tcpc %D0, %D1\n\t"
+            "brlo 1f\n\t"
+            /* rem >= t: rem -= t, t = 2 t + 3 */
+            "sub %A0, %A1\n\tsbc %B0, %B1\n\tsbc %C0, %C1\n\tsbc %D0, %D1\n\t"
+            "lsl %A1\n\trol %B1\n\trol %C1\n\trol %D1\n\t"
+            "subi %A1, 0xFD\n\tsbci %B1, 0xFF\n\tsbci %C1, 0xFF\n\tsbci %D1, 0xFF\n\t"
+            "rjmp 2f\n"
+            /* else t = 2 t - 1 */
+            "1:\tlsl %A1\n\trol %B1\n\trol %C1\n\trol %D1\n\t"
+            "subi %A1, 1\n\tsbci %B1, 0\n\tsbci %C1, 0\n\tsbci %D1, 0\n"
+            "2:"
+            : "+r"(*rem), "+d"(*t), "+r"(*v));
+#else
+    uint32_t r = *rem;
+    uint8_t b = *v;
+    r = r + r + (uint32_t)(b >> 7);
+    b = (uint8_t)(b << 1);
+    r = r + r + (uint32_t)(b >> 7);
+    b = (uint8_t)(b << 1);
+    if (r >= *t) {
+        r -= *t;
+        *t = *t + *t + 3u;
+    } else {
+        *t = *t + *t - 1u;
+    }
+    *rem = r;
+    *v = b;
+#endif
+}
+
 uint32_t pk_isqrt64(uint64_t x)
 {
     /* Digit by digit, two bits of x per step from the top: after step j (of
@@ -52,23 +92,15 @@ uint32_t pk_isqrt64(uint64_t x)
     if (k == 8u)
         return r16;
     uint32_t rem = m16, t = ((uint32_t)r16 << 2) | 1u; /* t = 4 root + 1 */
-    uint8_t steps = (uint8_t)(4u * (last - k));
-    if (last == 7u)
-        steps = (uint8_t)(steps + 2u); /* and byte 7's first two steps */
-    uint8_t v = by[k];
-    for (uint8_t j = 0; j < steps; j++) {
-        if ((j & 3u) == 0u && j != 0u)
-            v = by[++k];
-        rem = rem + rem + (uint32_t)(v >> 7);
-        v = (uint8_t)(v << 1);
-        rem = rem + rem + (uint32_t)(v >> 7);
-        v = (uint8_t)(v << 1);
-        if (rem >= t) {
-            rem -= t;
-            t = t + t + 3u;
-        } else {
-            t = t + t - 1u;
-        }
+    /* whole bytes k .. last - 1, then (last == 7) byte 7's first two steps */
+    uint8_t v = 0u;
+    for (; k <= last; k++) {
+        if (k == 8u)
+            break;
+        v = by[k];
+        const uint8_t n = k < last ? 4u : 2u; /* (k == last only when last == 7) */
+        for (uint8_t j = 0; j < n; j++)
+            isqrt_step32(&rem, &t, &v);
     }
     uint32_t root = t >> 2;
     if (last == 8u)

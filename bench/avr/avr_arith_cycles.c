@@ -3,7 +3,8 @@
  * ATmega328P (run by bench/avr_cycles): cycles per call of pk_isqrt64 on
  * pseudo-random operands of every width and on squares and their
  * neighbours; and how many roots differ from the exact floor, checked on the
- * chip (the "= wrong results" row; tests/extra/avr_arith.sh requires 0). The
+ * chip, those and 16,000 more (the "= wrong results" row;
+ * tests/extra/avr_arith.sh requires 0). The
  * roots are checked here as well as on the host (tests/test_motion_planner.c)
  * because avr-gcc's int is 16 bits wide: a promotion the host never sees
  * would only show here.
@@ -16,6 +17,8 @@
 #include "pk_fixed.h"
 
 #define N 300u
+/** roots checked on the chip beside the timed ones (4 per step) */
+#define CHECK_N 4000u
 
 static uint64_t rng = 88172645463325252ull;
 static uint64_t xr(void)
@@ -55,6 +58,18 @@ int main(void)
         bad += !exact_root(x, got);
     }
     avr_mark_report(N);
+    /* more operands, checked only (not timed): every width, and the squares
+     * and their neighbours of roots of every width, up to 2^32 - 1 */
+    for (uint16_t i = 0; i < CHECK_N; i++) {
+        const uint64_t x = xr() >> (uint8_t)(i % 64u);
+        bad += !exact_root(x, pk_isqrt64(x));
+        const uint32_t r = (uint32_t)(xr() >> (uint8_t)(32u + i % 32u));
+        const uint64_t sq = (uint64_t)r * r;
+        bad += !exact_root(sq, pk_isqrt64(sq));
+        if (r != 0u)
+            bad += !exact_root(sq - 1u, pk_isqrt64(sq - 1u));
+        bad += !exact_root(sq + 2u * (uint64_t)r, pk_isqrt64(sq + 2u * (uint64_t)r));
+    }
     avr_mark_label("= wrong results: ");
     avr_mark_begin("pk_isqrt64");
     avr_mark_end(bad);
