@@ -93,7 +93,7 @@
 /** Speed^2 Q4 from µm/min: (v / 60)^2 * 16 = v^2 / 225, rounded (v < 2^26). */
 static pk_v2_q4_t v2_of_um_min(uint32_t v)
 {
-#if PK_SOFT_DIV
+#if PK_SOFT_DIV && !PK_FLASH_FIRST /* (a flash-first board keeps the division: smaller) */
     /* Without the 64-bit division (~1,600 AVR cycles; this: three 32 x
      * 32-bit products): v = 15 a + b (0 <= b < 15), so v^2 + 112 = 225 a^2
      * + 30 a b + b^2 + 112 and the quotient is a^2 + floor((30 a b + b^2 +
@@ -295,7 +295,8 @@ pk_v2_q4_t pk_planner_junction_min_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t
      *    decide in 32 bits: ma md mx 2^(ea + ed + ex + 20) >= (mc + 1) (mh +
      *    1) 2^(ec + eh + 16), the left product < 2^24, the right <= 2^16.
      * Exact either way: J itself is computed unless the bound decides. */
-    if (d >= 0 && cap != UINT64_MAX && delta > 0 && a != 0) {
+    /* (not on a flash-first board: there J is always computed) */
+    if (!PK_FLASH_FIRST && d >= 0 && cap != UINT64_MAX && delta > 0 && a != 0) {
         const uint32_t k = (uint32_t)PK_Q30_ONE - ((uint32_t)PK_Q30_ONE + (uint32_t)d) / 2u;
         const uint32_t xm = ((uint32_t)1 << 31) - 3u * k - (h >> 20) - 1u; /* >= 2^29 - 2^10 - 1 */
         uint8_t ea, ed, ex, ec, eh;
@@ -353,7 +354,7 @@ pk_v2_q4_t pk_planner_curvature_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t u2
     uint64_t lmin = l1_q8 < l2_q8 ? l1_q8 : l2_q8;
     uint64_t num = (uint64_t)a * (2u * lmin);               /* < 2^27 * 2^32 */
     uint64_t qt;
-#if PK_SOFT_DIV
+#if PK_SOFT_DIV && !PK_FLASH_FIRST
     /* a few thousand at most (a ~2^20 µm/s^2, a chord of 2^16 µm Q8, a
      * turn of 2^25 in Q30): one step per quotient bit (pk_sg_div32_soft,
      * ~500 AVR cycles here) where the quotient fits 32 bits and du 2^31
