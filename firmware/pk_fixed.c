@@ -4,6 +4,37 @@
  */
 #include "pk_fixed.h"
 
+/* One step of pk_isqrt64's 16-bit phase (steps 1..12: rem <= 2 root < 2^13,
+ * so 4 rem + 3 < 2^15; t = 4 root + 1 < 2^14, 2 t + 3 < 2^15), the trial
+ * kept as in the 32-bit phase below. */
+static inline __attribute__((always_inline)) void isqrt_step16(uint16_t *rem, uint16_t *t, uint8_t *v)
+{
+#if defined(__AVR__) && !defined(PK_NO_ASM)
+    __asm__("lsl %2\n\trol %A0\n\trol %B0\n\t"
+            "lsl %2\n\trol %A0\n\trol %B0\n\t"
+            "cp %A0, %A1\n\tcpc %B0, %B1\n\t"
+            "brlo 1f\n\t"
+            "sub %A0, %A1\n\tsbc %B0, %B1\n\t"
+            "lsl %A1\n\trol %B1\n\t"
+            "subi %A1, 0xFD\n\tsbci %B1, 0xFF\n\t"
+            "rjmp 2f\n"
+            "1:\tlsl %A1\n\trol %B1\n\t"
+            "subi %A1, 1\n\tsbci %B1, 0\n"
+            "2:"
+            : "+r"(*rem), "+d"(*t), "+r"(*v));
+#else
+    uint16_t r = (uint16_t)((uint16_t)(*rem << 2) | (uint16_t)(*v >> 6));
+    *v = (uint8_t)(*v << 2);
+    if (r >= *t) {
+        r = (uint16_t)(r - *t);
+        *t = (uint16_t)(*t + *t + 3u);
+    } else {
+        *t = (uint16_t)(*t + *t - 1u);
+    }
+    *rem = r;
+#endif
+}
+
 /* One step of pk_isqrt64's 32-bit phase: the top two bits of v into rem,
  * then the trial t = 4 root + 1 (rem < 2^30 before the step: 4 rem + 3 <
  * 2^32, t < 2^32 after it). */
@@ -55,7 +86,8 @@ uint32_t pk_isqrt64(uint64_t x)
      * root, all steps in 32 bits ~1,875, this one ~1,300 on the roots of a
      * dense drawing; bench/avr/avr_arith_cycles.c measures it alone):
      *   - steps 1..12 (the first three bytes) in 16 bits: root < 2^12,
-     *     rem <= 2 root < 2^13, so 4 rem + 3 < 2^15 and 4 root + 1 < 2^14;
+     *     rem <= 2 root < 2^13, so 4 rem + 3 < 2^15 and 4 root + 1 < 2^14
+     *     (the trial kept in place of root, as below);
      *   - then 32 bits up to step 30 (rem < 2^30 before it: 4 rem + 3 <
      *     2^32), keeping the trial t = 4 root + 1 < 2^32 itself in place of
      *     root: the next trial is 2 t - 1 (digit 0) or 2 t + 3 (digit 1), so a
@@ -75,23 +107,15 @@ uint32_t pk_isqrt64(uint64_t x)
     uint8_t end = (uint8_t)(k + 3u);
     if (end > 8u)
         end = 8u;
-    uint16_t r16 = 0, m16 = 0;
+    uint16_t t16 = 1u, m16 = 0; /* t16 = 4 root + 1 */
     for (; k < end; k++) {
         uint8_t v = by[k];
-        for (uint8_t j = 0; j < 4u; j++) {
-            m16 = (uint16_t)((uint16_t)(m16 << 2) | (uint16_t)(v >> 6));
-            v = (uint8_t)(v << 2);
-            const uint16_t t = (uint16_t)((uint16_t)(r16 << 2) | 1u);
-            r16 = (uint16_t)(r16 << 1);
-            if (m16 >= t) {
-                m16 = (uint16_t)(m16 - t);
-                r16 |= 1u;
-            }
-        }
+        for (uint8_t j = 0; j < 4u; j++)
+            isqrt_step16(&m16, &t16, &v);
     }
     if (k == 8u)
-        return r16;
-    uint32_t rem = m16, t = ((uint32_t)r16 << 2) | 1u; /* t = 4 root + 1 */
+        return t16 >> 2;
+    uint32_t rem = m16, t = t16; /* t = 4 root + 1 */
     /* whole bytes k .. last - 1, then (last == 7) byte 7's first two steps */
     uint8_t v = 0u;
     for (; k <= last; k++) {
