@@ -53,10 +53,12 @@ struct pk_avr {
                                        (pk_avr_step.h; timer_start decides) */
 #endif
     /* step pulse (compare B) */
+    /* (armed: compare B's interrupt enabled, pk_avr_pulse_armed) */
     uint16_t pulse_end;           /**< TCNT at which the pulse ends */
-    uint8_t pulse_mask;           /**< its step lines (axis bits) ... */
-    uint8_t pulse_idle;           /**< ... and their idle raw levels */
-    volatile uint8_t pulse_on;    /**< compare B armed for pulse_end */
+    uint8_t pulse_keep0;          /**< the end's write: port 0 = port 0 & keep0 | set0 */
+    uint8_t pulse_set0;           /**< (keep0 0xFF: no line of the pulse there, no write) */
+    uint8_t pulse_keep1;          /**< the same for port 1 (boards with */
+    uint8_t pulse_set1;           /**< PK_BOARD_STEP_PORT1; board.h) */
     /* inputs (pk_avr_inputs.c, boards with PK_BOARD_INPUTS) */
     pk_hal_input_cb in_cb;        /**< edge callback (input_watch, MAIN, ISR off) */
     void *in_arg;
