@@ -36,11 +36,13 @@ static inline __attribute__((always_inline)) uint8_t pk_avr_pulse_armed(void)
  *  compare B vector does in assembly, pk_avr_timer.c). */
 static inline __attribute__((always_inline)) void pk_avr_pulse_lines_idle(const struct pk_avr *a)
 {
-    if (a->pulse_keep0 != 0xFFu)
-        PK_BOARD_STEP_PORT0 = (uint8_t)((PK_BOARD_STEP_PORT0 & a->pulse_keep0) | a->pulse_set0);
+    /* (port | m) ^ v: the lines of m to 1, then those at 1 during the
+     * pulse (v, within m) to 0; the port's other lines unchanged */
+    if (a->pulse_m0 != 0u)
+        PK_BOARD_STEP_PORT0 = (uint8_t)((PK_BOARD_STEP_PORT0 | a->pulse_m0) ^ a->pulse_v0);
 #ifdef PK_BOARD_STEP_PORT1
-    if (a->pulse_keep1 != 0xFFu)
-        PK_BOARD_STEP_PORT1 = (uint8_t)((PK_BOARD_STEP_PORT1 & a->pulse_keep1) | a->pulse_set1);
+    if (a->pulse_m1 != 0u)
+        PK_BOARD_STEP_PORT1 = (uint8_t)((PK_BOARD_STEP_PORT1 | a->pulse_m1) ^ a->pulse_v1);
 #endif
 }
 
@@ -75,9 +77,10 @@ static inline __attribute__((always_inline)) int pk_avr_step_pulse8_inline(void 
     if (pk_avr_pulse_armed())
         pk_avr_pulse_end(a); /* (the core never overlaps pulses) */
     /* pk_board_step_write(mask, levels) port by port (a port without a
-     * line of mask is not written), and the end's writes, the same for the
-     * idle levels (~levels & mask: the port bits of mask not set now), so
-     * that the compare B vector only applies them */
+     * line of mask is not written), and what the end's writes need, per
+     * port the bits of mask and those of them set now (the idle levels,
+     * ~levels & mask, are the others), so that the compare B vector only
+     * applies them */
     const uint8_t m0 = pk_board_step_bits0(mask);
     const uint8_t v0 = (uint8_t)(pk_board_step_bits0(levels) & m0);
     if (m0 != 0u)
@@ -89,11 +92,11 @@ static inline __attribute__((always_inline)) int pk_avr_step_pulse8_inline(void 
         PK_BOARD_STEP_PORT1 = (uint8_t)((PK_BOARD_STEP_PORT1 & (uint8_t)~m1) | v1);
 #endif
     a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_keep0 = (uint8_t)~m0;
-    a->pulse_set0 = (uint8_t)(m0 ^ v0);
+    a->pulse_m0 = m0;
+    a->pulse_v0 = v0;
 #ifdef PK_BOARD_STEP_PORT1
-    a->pulse_keep1 = (uint8_t)~m1;
-    a->pulse_set1 = (uint8_t)(m1 ^ v1);
+    a->pulse_m1 = m1;
+    a->pulse_v1 = v1;
 #endif
     if (w <= PK_AVR_PULSE_SPIN) {
         while (!pk_avr_pulse_due(a))

@@ -116,8 +116,9 @@ static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a,
 
 /* (ira-algorithm=priority: avr-gcc 5.4's other register allocator, for
  * this one large function: one register fewer to save and fewer moves,
- * 616 cycles a step instead of 623 on the 17,000 steps/s X move on
- * mega-ramps; the same C, only its registers differ. Tried and dropped:
+ * 616 cycles a step instead of 623 (when chosen) on the 17,000 steps/s X
+ * move on mega-ramps; the same C, only its registers differ. Tried and
+ * dropped:
  * the rare calls through an assembly sequence saving the call-clobbered
  * registers itself, so that the vector calls nothing: the allocator then
  * used as many registers as before, and the vector cost 626 cycles a
@@ -211,24 +212,24 @@ ISR(PK_BOARD_PULSE_COMP_vect, ISR_NAKED)
         "lds r26, %[end]+1\n\t"
         "cpc r25, r26\n\t"
         "brmi 3f\n\t"
-        /* port 0 = port 0 & keep0 | set0 (keep0 0xFF: not written) */
-        "lds r25, %[k0]\n\t"
-        "cpi r25, 0xFF\n\t"
+        /* port 0 = (port 0 | m0) ^ v0 (m0 0: not written) */
+        "lds r25, %[m0]\n\t"
+        "tst r25\n\t"
         "breq 1f\n\t"
         "in r24, %[p0]\n\t"
-        "and r24, r25\n\t"
-        "lds r25, %[s0]\n\t"
         "or r24, r25\n\t"
+        "lds r25, %[v0]\n\t"
+        "eor r24, r25\n\t"
         "out %[p0], r24\n"
         "1:\n\t"
 #ifdef PK_BOARD_STEP_PORT1
-        "lds r25, %[k1]\n\t"
-        "cpi r25, 0xFF\n\t"
+        "lds r25, %[m1]\n\t"
+        "tst r25\n\t"
         "breq 2f\n\t"
         "lds r24, %[p1]\n\t"
-        "and r24, r25\n\t"
-        "lds r25, %[s1]\n\t"
         "or r24, r25\n\t"
+        "lds r25, %[v1]\n\t"
+        "eor r24, r25\n\t"
         "sts %[p1], r24\n"
         "2:\n\t"
 #endif
@@ -245,10 +246,10 @@ ISR(PK_BOARD_PULSE_COMP_vect, ISR_NAKED)
         "reti"
         :
         : [tcnt] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_TCNT)), [end] "i"(&pk_avr_board.pulse_end),
-          [k0] "i"(&pk_avr_board.pulse_keep0), [s0] "i"(&pk_avr_board.pulse_set0),
+          [m0] "i"(&pk_avr_board.pulse_m0), [v0] "i"(&pk_avr_board.pulse_v0),
           [p0] "I"(_SFR_IO_ADDR(PK_BOARD_STEP_PORT0)),
 #ifdef PK_BOARD_STEP_PORT1
-          [k1] "i"(&pk_avr_board.pulse_keep1), [s1] "i"(&pk_avr_board.pulse_set1),
+          [m1] "i"(&pk_avr_board.pulse_m1), [v1] "i"(&pk_avr_board.pulse_v1),
           [p1] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_PORT1)),
 #endif
           [timsk] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_TIMSK)),
