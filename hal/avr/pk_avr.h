@@ -53,10 +53,13 @@ struct pk_avr {
                                        (pk_avr_step.h; timer_start decides) */
 #endif
     /* step pulse (compare B) */
+    /* (armed: compare B's interrupt enabled, pk_avr_pulse_armed) */
     uint16_t pulse_end;           /**< TCNT at which the pulse ends */
-    uint8_t pulse_mask;           /**< its step lines (axis bits) ... */
-    uint8_t pulse_idle;           /**< ... and their idle raw levels */
-    volatile uint8_t pulse_on;    /**< compare B armed for pulse_end */
+    uint8_t pulse_m0;             /**< port 0's bits of the pulse's lines (0: no write) ... */
+    uint8_t pulse_v0;             /**< ... those of them it raised (within pulse_m0): the
+                                       end writes port 0 = (port 0 | m0) ^ v0 */
+    uint8_t pulse_m1;             /**< the same for port 1 (boards with */
+    uint8_t pulse_v1;             /**< PK_BOARD_STEP_PORT1; board.h) */
     /* inputs (pk_avr_inputs.c, boards with PK_BOARD_INPUTS) */
     pk_hal_input_cb in_cb;        /**< edge callback (input_watch, MAIN, ISR off) */
     void *in_arg;

@@ -24,12 +24,33 @@
  *  compare B interrupt (writing OCRB takes a few ticks). */
 #define PK_AVR_PULSE_SPIN 3u
 
+/** [interrupts off] Compare B's interrupt is enabled: a pulse is high, to
+ *  end at pulse_end (set and cleared with it: the pulse's own flag). */
+static inline __attribute__((always_inline)) uint8_t pk_avr_pulse_armed(void)
+{
+    return (uint8_t)(PK_BOARD_STEP_TIMSK & _BV(PK_BOARD_PULSE_OCIE));
+}
+
+/** [interrupts off] The pulse's lines to idle: the writes prepared at its
+ *  start (pk_board_step_write(mask, idle levels) as per-port masks, what the
+ *  compare B vector does in assembly, pk_avr_timer.c). */
+static inline __attribute__((always_inline)) void pk_avr_pulse_lines_idle(const struct pk_avr *a)
+{
+    /* (port | m) ^ v: the lines of m to 1, then those at 1 during the
+     * pulse (v, within m) to 0; the port's other lines unchanged */
+    if (a->pulse_m0 != 0u)
+        PK_BOARD_STEP_PORT0 = (uint8_t)((PK_BOARD_STEP_PORT0 | a->pulse_m0) ^ a->pulse_v0);
+#ifdef PK_BOARD_STEP_PORT1
+    if (a->pulse_m1 != 0u)
+        PK_BOARD_STEP_PORT1 = (uint8_t)((PK_BOARD_STEP_PORT1 | a->pulse_m1) ^ a->pulse_v1);
+#endif
+}
+
 /** [interrupts off] The pulse's lines back to idle, compare B's interrupt off. */
 static inline __attribute__((always_inline)) void pk_avr_pulse_end(struct pk_avr *a)
 {
-    pk_board_step_write(a->pulse_mask, a->pulse_idle);
+    pk_avr_pulse_lines_idle(a);
     PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK & (uint8_t)~_BV(PK_BOARD_PULSE_OCIE));
-    a->pulse_on = 0u;
 }
 
 /** [interrupts off] The pulse's end tick has come (16-bit counter time: a
@@ -53,19 +74,36 @@ static inline __attribute__((always_inline)) int pk_avr_step_pulse8_inline(void 
     uint16_t w = width_ticks > 0x7FFFu ? 0x7FFFu : width_ticks;
     uint8_t s = SREG;
     cli();
-    if (a->pulse_on)
+    if (pk_avr_pulse_armed())
         pk_avr_pulse_end(a); /* (the core never overlaps pulses) */
-    pk_board_step_write(mask, levels);
+    /* pk_board_step_write(mask, levels) port by port (a port without a
+     * line of mask is not written), and what the end's writes need, per
+     * port the bits of mask and those of them set now (the idle levels,
+     * ~levels & mask, are the others), so that the compare B vector only
+     * applies them */
+    const uint8_t m0 = pk_board_step_bits0(mask);
+    const uint8_t v0 = (uint8_t)(pk_board_step_bits0(levels) & m0);
+    if (m0 != 0u)
+        PK_BOARD_STEP_PORT0 = (uint8_t)((PK_BOARD_STEP_PORT0 & (uint8_t)~m0) | v0);
+#ifdef PK_BOARD_STEP_PORT1
+    const uint8_t m1 = pk_board_step_bits1(mask);
+    const uint8_t v1 = (uint8_t)(pk_board_step_bits1(levels) & m1);
+    if (m1 != 0u)
+        PK_BOARD_STEP_PORT1 = (uint8_t)((PK_BOARD_STEP_PORT1 & (uint8_t)~m1) | v1);
+#endif
     a->pulse_end = (uint16_t)(PK_BOARD_STEP_TCNT + w);
-    a->pulse_mask = mask;
-    a->pulse_idle = (uint8_t)(~levels & mask);
+    a->pulse_m0 = m0;
+    a->pulse_v0 = v0;
+#ifdef PK_BOARD_STEP_PORT1
+    a->pulse_m1 = m1;
+    a->pulse_v1 = v1;
+#endif
     if (w <= PK_AVR_PULSE_SPIN) {
         while (!pk_avr_pulse_due(a))
             ;
-        pk_board_step_write(a->pulse_mask, a->pulse_idle);
+        pk_avr_pulse_lines_idle(a);
     } else {
         PK_BOARD_PULSE_OCR = a->pulse_end;
-        a->pulse_on = 1u;
         PK_BOARD_STEP_TIMSK = (uint8_t)(PK_BOARD_STEP_TIMSK | _BV(PK_BOARD_PULSE_OCIE));
     }
     SREG = s;

@@ -114,10 +114,19 @@ static inline __attribute__((always_inline)) uint8_t arm(const struct pk_avr *a,
     return d >= 0x8000u || (int16_t)(at - PK_BOARD_STEP_TCNT) > 3;
 }
 
-ISR(PK_BOARD_STEP_COMP_vect)
+/* (ira-algorithm=priority: avr-gcc 5.4's other register allocator, for
+ * this one large function: one register fewer to save and fewer moves,
+ * 616 cycles a step instead of 623 (when chosen) on the 17,000 steps/s X
+ * move on mega-ramps; the same C, only its registers differ. Tried and
+ * dropped:
+ * the rare calls through an assembly sequence saving the call-clobbered
+ * registers itself, so that the vector calls nothing: the allocator then
+ * used as many registers as before, and the vector cost 626 cycles a
+ * step, not 608) */
+ISR(PK_BOARD_STEP_COMP_vect, __attribute__((optimize("ira-algorithm=priority"))))
 {
     struct pk_avr *a = &pk_avr_board;
-    if (a->pulse_on && pk_avr_pulse_due(a))
+    if (pk_avr_pulse_armed() && pk_avr_pulse_due(a))
         pk_avr_pulse_end(a);
     uint32_t now = now32(a);
     int32_t d = (int32_t)(a->next - now);
@@ -180,12 +189,71 @@ ISR(PK_BOARD_STEP_COMP_vect)
 #endif
 }
 
-/* Compare B: the end of a step pulse (or a stale match: not yet its time). */
-ISR(PK_BOARD_PULSE_COMP_vect)
+/* Compare B: the end of a step pulse (or a stale match: not yet its time),
+ * once per step: pk_avr_pulse_due and pk_avr_pulse_end (pk_avr_pulse.h) in
+ * assembly, saving only the three registers and SREG it uses (the compiled
+ * handler saved nine and rebuilt the port bits from the axis masks: 99
+ * cycles a pulse on mega-ramps; this, 62). r1 is not assumed zero (the
+ * interrupted code may be between a mul and its clearing). TCNT's low byte
+ * is read first (it latches the high byte), as the compiler does. */
+ISR(PK_BOARD_PULSE_COMP_vect, ISR_NAKED)
 {
-    struct pk_avr *a = &pk_avr_board;
-    if (pk_avr_pulse_due(a))
-        pk_avr_pulse_end(a);
+    __asm__ volatile(
+        "push r24\n\t"
+        "in r24, __SREG__\n\t"
+        "push r24\n\t"
+        "push r25\n\t"
+        "push r26\n\t"
+        /* (int16_t)(TCNT - pulse_end) < 0: not yet */
+        "lds r24, %[tcnt]\n\t"
+        "lds r25, %[tcnt]+1\n\t"
+        "lds r26, %[end]\n\t"
+        "cp r24, r26\n\t"
+        "lds r26, %[end]+1\n\t"
+        "cpc r25, r26\n\t"
+        "brmi 3f\n\t"
+        /* port 0 = (port 0 | m0) ^ v0 (m0 0: not written) */
+        "lds r25, %[m0]\n\t"
+        "tst r25\n\t"
+        "breq 1f\n\t"
+        "in r24, %[p0]\n\t"
+        "or r24, r25\n\t"
+        "lds r25, %[v0]\n\t"
+        "eor r24, r25\n\t"
+        "out %[p0], r24\n"
+        "1:\n\t"
+#ifdef PK_BOARD_STEP_PORT1
+        "lds r25, %[m1]\n\t"
+        "tst r25\n\t"
+        "breq 2f\n\t"
+        "lds r24, %[p1]\n\t"
+        "or r24, r25\n\t"
+        "lds r25, %[v1]\n\t"
+        "eor r24, r25\n\t"
+        "sts %[p1], r24\n"
+        "2:\n\t"
+#endif
+        /* compare B's interrupt off */
+        "lds r24, %[timsk]\n\t"
+        "andi r24, %[noie]\n\t"
+        "sts %[timsk], r24\n"
+        "3:\n\t"
+        "pop r26\n\t"
+        "pop r25\n\t"
+        "pop r24\n\t"
+        "out __SREG__, r24\n\t"
+        "pop r24\n\t"
+        "reti"
+        :
+        : [tcnt] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_TCNT)), [end] "i"(&pk_avr_board.pulse_end),
+          [m0] "i"(&pk_avr_board.pulse_m0), [v0] "i"(&pk_avr_board.pulse_v0),
+          [p0] "I"(_SFR_IO_ADDR(PK_BOARD_STEP_PORT0)),
+#ifdef PK_BOARD_STEP_PORT1
+          [m1] "i"(&pk_avr_board.pulse_m1), [v1] "i"(&pk_avr_board.pulse_v1),
+          [p1] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_PORT1)),
+#endif
+          [timsk] "n"(_SFR_MEM_ADDR(PK_BOARD_STEP_TIMSK)),
+          [noie] "n"((uint8_t)~_BV(PK_BOARD_PULSE_OCIE)));
 }
 
 ISR(PK_BOARD_STEP_OVF_vect)
@@ -215,7 +283,6 @@ void pk_avr_timer_init(struct pk_avr *a)
     a->armed = 0u;
     a->ovf_lo = 0u;
     a->ovf_hi = 0u;
-    a->pulse_on = 0u;
     a->in_step = 0u;
     a->in_pend = 0u;
     PK_BOARD_STEP_TIMSK = 0u;

@@ -127,6 +127,22 @@ static inline __attribute__((always_inline)) void pk_board_step_write(uint8_t ma
         PORTL = (uint8_t)((levels & 4u) ? (PORTL | _BV(PL3)) : (PORTL & (uint8_t)~_BV(PL3)));
 }
 
+/* The step lines' ports as the pulse end writes them (pk_avr_pulse.h,
+ * pk_avr_timer.c's compare B vector, in assembly): port 0 in the I/O space
+ * (in/out), port 1 (optional) anywhere (lds/sts); pk_board_step_bits0/1 the
+ * bits of each for the axes of a mask, as pk_board_step_write places them. */
+#define PK_BOARD_STEP_PORT0 PORTF
+#define PK_BOARD_STEP_PORT1 PORTL
+static inline __attribute__((always_inline)) uint8_t pk_board_step_bits0(uint8_t mask)
+{
+    /* bit 0 -> PF0, bit 1 -> PF6 (shifts: fewer instructions than tests) */
+    return (uint8_t)((mask & 1u) | (uint8_t)((uint8_t)(mask & 2u) << (PF6 - 1)));
+}
+static inline __attribute__((always_inline)) uint8_t pk_board_step_bits1(uint8_t mask)
+{
+    return (uint8_t)((uint8_t)(mask & 4u) << (PL3 - 2)); /* bit 2 -> PL3 */
+}
+
 /** [ISR] Direction lines: X PF1, Y PF7, Z PL1. */
 static inline void pk_board_dir_write(uint8_t mask, uint8_t levels)
 {

@@ -115,6 +115,16 @@ static inline __attribute__((always_inline)) void pk_board_step_write(uint8_t ma
     PORTD = (uint8_t)((PORTD & (uint8_t)~m) | ((uint8_t)(levels << 2) & m));
 }
 
+/* The step lines' port as the pulse end writes it (pk_avr_pulse.h,
+ * pk_avr_timer.c's compare B vector, in assembly; in the I/O space: in/out),
+ * pk_board_step_bits0 its bits for the axes of a mask (one port: no
+ * PK_BOARD_STEP_PORT1). */
+#define PK_BOARD_STEP_PORT0 PORTD
+static inline __attribute__((always_inline)) uint8_t pk_board_step_bits0(uint8_t mask)
+{
+    return (uint8_t)((mask & 0x07u) << 2);
+}
+
 /** [ISR] Direction lines: X PD5, Y PD6, Z PD7. */
 static inline void pk_board_dir_write(uint8_t mask, uint8_t levels)
 {
