@@ -199,6 +199,11 @@ def drawing(board, name, prog, conf, tmp, elf, syms):
     print('  %-52s %12s' % ('measurement', 'value'))
     row = lambda k, v: print('  %-52s %12s' % (k, v))
     row('step ISR cycles per step (mean, all its calls)', '%.0f' % (st['cycles'] / steps))
+    # (absent: no compare B interrupt ran, every pulse was timed inside the
+    # step ISR, PK_AVR_PULSE_SPIN)
+    pe = d['isr'].get(str(PULSE_VECTOR[board]), {'cycles': 0})
+    row('pulse-end ISR (compare B) cycles per step', '%.0f' % (pe['cycles'] / steps))
+    row('  both: cycles per step (30 kHz at 16 MHz: < 533)', '%.0f' % ((st['cycles'] + pe['cycles']) / steps))
     row('longest step ISR (cycles, nested serial excluded)', '%d' % st['max'])
     if cb[0]:
         row('pk_machine_timer_cb per call: mean / worst cycles', '%.0f / %d' % (cb[1] / cb[0], cb[2]))
@@ -337,6 +342,8 @@ ONLY = os.environ.get('PK_BENCH_ONLY', '')
 if ONLY not in ('', 'dense'):
     sys.exit('bench-avr: PK_BENCH_ONLY must be empty or "dense", not %r' % ONLY)
 STEP_VECTOR = {'uno-cnc-shield': 11, 'mega-ramps': 32}
+# compare B of the step timer: the end of each step pulse (hal/avr/pk_avr_timer.c)
+PULSE_VECTOR = {'uno-cnc-shield': 12, 'mega-ramps': 33}
 OFFS = {}
 
 
