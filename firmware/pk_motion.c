@@ -732,12 +732,18 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         uint64_t ss = 0;
         for (unsigned i = 0; i < axes; i++) {
             d_um[i] = p[i] - m->target_um[i];
-            /* |skip| < 2^23 µm: Q4 squares < 2^54, three of them < 2^56 */
-            const int64_t sk = (int64_t)(m->target_um[i] - m->timed_um[i]) * 16;
-            ss += (uint64_t)(sk * sk);
+            /* |skip| < 2^23 µm: squares < 2^46, in µm Q4 (times 2^8) < 2^54,
+             * three of them < 2^56. The µm squares summed (a 32x32 product,
+             * none for an axis with no skip, as nearly always: a 64x64 one
+             * was ~400 AVR cycles an axis a block), then scaled once. */
+            const int32_t sk = m->target_um[i] - m->timed_um[i];
+            if (sk != 0) {
+                const uint32_t a = sk < 0 ? 0u - (uint32_t)sk : (uint32_t)sk;
+                ss += (uint64_t)a * a;
+            }
         }
         if (ss != 0)
-            lead_q8 = pk_isqrt64(ss) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
+            lead_q8 = pk_isqrt64(ss << 8) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
     }
     /* (a turn's acceleration share goes to this new block only, never to one
      * already queued, whose exit may be committed: findings M7, M8,
