@@ -11,6 +11,7 @@
  */
 #include <string.h>
 #include "pk_motion.h"
+#include "pk_sg_div.h"
 
 static void run_start(struct pk_machine *m);
 
@@ -560,6 +561,24 @@ static struct pk_req *req_at(struct pk_machine *m, uint32_t i)
 
 /* ----------------------------------------------------------- planning */
 
+/* PK_MOTION_SOFT_DIV=1 (by default on an 8-bit core that is not
+ * flash-first: PK_SOFT_DIV, pk_munits.h): steps_to_um_q8 divides in 32-bit
+ * words (pk_sg_div32_soft) instead of libgcc's 64-bit division, the same
+ * results (tests/test_motion_divs.c sets it on the host). (um_conv's division
+ * by 256000 so, as (a >> 11) / 125 in two words, cost more: ~1,200 cycles.) */
+#ifndef PK_MOTION_SOFT_DIV
+#define PK_MOTION_SOFT_DIV (PK_SOFT_DIV && !PK_FLASH_FIRST)
+#endif
+#if PK_MOTION_SOFT_DIV
+/* floor((hi 2^32 + lo) / d), hi < d <= 2^31: pk_sg_div32_soft out of line
+ * (inlined into plan_piece's large frame its loop ran from the stack, ~50
+ * AVR cycles a bit against ~25). */
+#if defined(__GNUC__) || defined(__clang__)
+__attribute__((noinline))
+#endif
+static uint32_t motion_div32(uint32_t hi, uint32_t lo, uint32_t d) { return pk_sg_div32_soft(hi, lo, d); }
+#endif
+
 /* A coordinate's whole steps (pk_um_to_steps) and its ideal position in
  * steps Q8 (um * spmm_q16 / (1000 * 65536) * 256, rounded as
  * pk_div_round64 rounds) from ONE 64-bit division: on an 8-bit core each is
@@ -606,7 +625,26 @@ static const struct pk_axconv *axis_conv(struct pk_machine *m, unsigned i, pk_um
  * rounded: the steps of a displacement within 2 PK_UM_MAX, so < 2^31. */
 static int32_t steps_to_um_q8(pk_steps_t n, pk_spmm_q16_t spmm)
 {
+#if PK_MOTION_SOFT_DIV
+    /* On an 8-bit core in 32-bit words (the 64-bit product and division
+     * were ~900 AVR cycles a call): |n| <= PK_PLANNER_MAX_STEPS = 2^21, so
+     * m = |n| 1000 < 2^32 and the dividend |n| 256000 2^16 = m 2^24 is
+     * (m >> 8) 2^32 + (m << 24); plus floor(spmm / 2) (a carry into the high
+     * word); spmm <= PK_SPMM_Q16_MAX < 2^31 and the quotient, a displacement
+     * within 2 PK_UM_MAX in µm Q8 (above), is below 2^31, so
+     * pk_sg_div32_soft gives the plain floor: the same rounding as
+     * pk_div_round64, ties away from zero. */
+    const uint32_t m = (n < 0 ? 0u - (uint32_t)n : (uint32_t)n) * 1000u;
+    const uint32_t half = spmm / 2u;
+    uint32_t hi = m >> 8, lo = m << 24;
+    lo += half;
+    if (lo < half)
+        hi++;
+    const int32_t q = (int32_t)motion_div32(hi, lo, spmm);
+    return n < 0 ? -q : q;
+#else
     return (int32_t)pk_div_round64((int64_t)n * ((int64_t)256000 << PK_SPMM_Q16_SHIFT), (int64_t)spmm);
+#endif
 }
 
 /*
@@ -694,12 +732,18 @@ static int plan_piece(struct pk_machine *m, const pk_um_t p_in[PK_AXES], pk_um_m
         uint64_t ss = 0;
         for (unsigned i = 0; i < axes; i++) {
             d_um[i] = p[i] - m->target_um[i];
-            /* |skip| < 2^23 µm: Q4 squares < 2^54, three of them < 2^56 */
-            const int64_t sk = (int64_t)(m->target_um[i] - m->timed_um[i]) * 16;
-            ss += (uint64_t)(sk * sk);
+            /* |skip| < 2^23 µm: squares < 2^46, in µm Q4 (times 2^8) < 2^54,
+             * three of them < 2^56. The µm squares summed (a 32x32 product,
+             * none for an axis with no skip, as nearly always: a 64x64 one
+             * was ~400 AVR cycles an axis a block), then scaled once. */
+            const int32_t sk = m->target_um[i] - m->timed_um[i];
+            if (sk != 0) {
+                const uint32_t a = sk < 0 ? 0u - (uint32_t)sk : (uint32_t)sk;
+                ss += (uint64_t)a * a;
+            }
         }
         if (ss != 0)
-            lead_q8 = pk_isqrt64(ss) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
+            lead_q8 = pk_isqrt64(ss << 8) << 4; /* (< 2^27 µm Q4 -> < 2^31 Q8) */
     }
     /* (a turn's acceleration share goes to this new block only, never to one
      * already queued, whose exit may be committed: findings M7, M8,

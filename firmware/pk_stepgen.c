@@ -306,10 +306,13 @@ static SG_PREP struct pk_sg_chunk *ring_slot(struct pk_stepgen *sg)
 {
     if (pk_sg_pending(sg) >= PK_SG_CHUNKS)
         return NULL;
+    /* (not cleared: every writer sets all the fields the step path reads
+     * for its kind (STEPS: n, u.st, v_um_s; SLOW: n, u.ticks, v_um_s;
+     * BLOCK: arg, n, spindle, u.blk; TOOL, SPINDLE, WAIT: arg, spindle,
+     * u.ticks), and nothing else reads the ring: the 30-byte memset was
+     * ~250 AVR cycles a chunk) */
     uint8_t h = sg->head;
-    struct pk_sg_chunk *c = &sg->ring[h & SG_MASK];
-    memset(c, 0, sizeof *c);
-    return c;
+    return &sg->ring[h & SG_MASK];
 }
 
 static void ring_commit(struct pk_stepgen *sg)
@@ -555,7 +558,14 @@ static SG_PREP bool seg_speeds(struct pk_stepgen *sg, const struct pk_block *b, 
          * is known and the square reaches it, the root is clamped to v1) */
         if (v1 != v0) {
             const uint64_t e2 = v1 > v0 ? mac64(v02, two_a, ds) : msub64(v02, two_a, ds);
-            if (!(v1 > v0 && v12 != 0u && e2 >= v12)) {
+            /* The root only where the clamp to v1 does not decide it:
+             * accelerating, isqrt(e2) >= v1 <=> e2 >= v1^2; decelerating,
+             * isqrt(e2) <= v1 <=> e2 < (v1 + 1)^2 (v1 < v0 < 2^24: no
+             * overflow). Either way v1 stays (a square is ~150 AVR cycles,
+             * the root ~1,400). */
+            const uint64_t v1sq = v12 != 0u ? v12 : sq64(v1);
+            const bool at_v1 = v1 > v0 ? e2 >= v1sq : e2 < v1sq + 2u * (uint64_t)v1 + 1u;
+            if (!at_v1) {
                 uint32_t vl = pk_isqrt64(e2);
                 if (v1 > v0 && vl > v1)
                     vl = v1;

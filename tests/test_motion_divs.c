@@ -11,9 +11,11 @@
 #include <string.h>
 #include "th.h"
 /* the forms an 8-bit core compiles (shift-and-subtract divisions where
- * their quotients fit 32 bits), so the host tests the chip's arithmetic;
- * the plain forms are the C expressions themselves */
+ * their quotients fit 32 bits, steps_to_um_q8's among them), so the host
+ * tests the chip's arithmetic; the plain forms are the C expressions
+ * themselves */
 #define PK_SOFT_DIV 1
+#define PK_MOTION_SOFT_DIV 1
 #include "../firmware/pk_motion.c"
 #include "../firmware/pk_planner.c"
 
@@ -50,6 +52,42 @@ static void test_one_division_gives_the_steps_and_the_steps_q8_of_a_coordinate(v
         const pk_um_t um = (pk_um_t)(xr() % (4u * PK_UM_MAX + 1u)) - 2 * PK_UM_MAX;
         const pk_spmm_q16_t spmm = PK_SPMM_Q16_MIN + (pk_spmm_q16_t)(xr() % (PK_SPMM_Q16_MAX - PK_SPMM_Q16_MIN + 1u));
         bad += conv_bad(um, spmm);
+    }
+    TH_EXPECT(n > 1000000);
+    TH_EXPECT_EQ(bad, 0);
+}
+
+/* steps_to_um_q8's 32-bit-word division against the rounded 64-bit one it
+ * replaces: every displacement a block can have (|n| <= PK_PLANNER_MAX_STEPS
+ * within 2 PK_UM_MAX at the steps/mm), edges and random values */
+static unsigned q8_bad(pk_steps_t n, pk_spmm_q16_t spmm)
+{
+    const int64_t want = pk_div_round64((int64_t)n * ((int64_t)256000 << PK_SPMM_Q16_SHIFT), (int64_t)spmm);
+    return steps_to_um_q8(n, spmm) != want;
+}
+
+static void test_the_steps_q8_of_a_displacement_are_those_of_the_64_bit_division(void)
+{
+    static const pk_spmm_q16_t sp[] = { PK_SPMM_Q16_MIN, 128000u, 80u << 16, 5242881u, 100u << 16,
+                                        PK_SPMM_Q16_MAX - 1u, PK_SPMM_Q16_MAX };
+    unsigned bad = 0, n = 0;
+    for (unsigned k = 0; k < TH_COUNT(sp); k++) {
+        /* the largest |n| within 2 PK_UM_MAX (and the block's bound) */
+        int64_t top = (int64_t)2 * PK_UM_MAX * sp[k] / (1000 << PK_SPMM_Q16_SHIFT) + 1;
+        if (top > (int64_t)PK_PLANNER_MAX_STEPS)
+            top = PK_PLANNER_MAX_STEPS;
+        for (pk_steps_t s = -3000; s <= 3000; s++, n++)
+            bad += q8_bad(s, sp[k]);
+        for (int64_t s = top - 2000; s <= top; s++, n += 2)
+            bad += q8_bad((pk_steps_t)s, sp[k]) + q8_bad((pk_steps_t)-s, sp[k]);
+    }
+    for (int k = 0; k < 1000000; k++, n++) {
+        const pk_spmm_q16_t spmm = PK_SPMM_Q16_MIN + (pk_spmm_q16_t)(xr() % (PK_SPMM_Q16_MAX - PK_SPMM_Q16_MIN + 1u));
+        int64_t top = (int64_t)2 * PK_UM_MAX * spmm / (1000 << PK_SPMM_Q16_SHIFT) + 1;
+        if (top > (int64_t)PK_PLANNER_MAX_STEPS)
+            top = PK_PLANNER_MAX_STEPS;
+        const pk_steps_t s = (pk_steps_t)(xr() % (uint64_t)(2 * top + 1)) - (pk_steps_t)top;
+        bad += q8_bad(s, spmm);
     }
     TH_EXPECT(n > 1000000);
     TH_EXPECT_EQ(bad, 0);
@@ -233,6 +271,7 @@ int th_main(int argc, char **argv)
     (void)argv;
     static const struct th_case cases[] = {
         TH_CASE(test_one_division_gives_the_steps_and_the_steps_q8_of_a_coordinate),
+        TH_CASE(test_the_steps_q8_of_a_displacement_are_those_of_the_64_bit_division),
         TH_CASE(test_the_junction_and_curvature_limits_are_those_of_the_64_bit_expressions),
         TH_CASE(test_the_junction_limit_against_a_cap_is_the_minimum_of_the_two),
         TH_CASE(test_a_feed_s_speed_squared_is_the_rounded_quotient_of_the_64_bit_division),
