@@ -302,7 +302,7 @@ pk_v2_q4_t pk_planner_junction_min_v2(const pk_q30_t u1[PK_AXES], const pk_q30_t
         uint8_t ea, ed, ex, ec, eh;
         const uint8_t ma = mant8(a, &ea), md = mant8((uint32_t)delta, &ed), mx = mant8(xm, &ex);
         const uint16_t mc = (uint16_t)(mant8_64(cap + 1u, &ec) + 1u), mh = (uint16_t)(mant8(h, &eh) + 1u);
-        const uint32_t lhs = (uint32_t)(uint16_t)(ma * md) * mx, rhs = (uint32_t)mc * mh;
+        const uint32_t lhs = (uint32_t)ma * md * mx, rhs = (uint32_t)mc * mh; /* (32-bit: ma md overflows a 16-bit int) */
         const int e = (int)ea + (int)ed + (int)ex + 20 - ((int)ec + (int)eh + 16);
         /* lhs 2^e >= rhs, in 32 bits: for e >= 0, lhs >= ceil(rhs / 2^e)
          * (beyond e = 16, lhs >= 1 > rhs / 2^e); for e < 0, floor(lhs /
