@@ -734,6 +734,48 @@ static void test_pen_changes_switch_the_tool_output_at_a_standstill(void)
     free(d);
 }
 
+/* The chunk ring is not cleared when a slot is reused (pk_stepgen.c's
+ * ring_slot): every writer must set every field the step path reads for its
+ * chunk's kind. A ring full of 0xA5 bytes before the run must change
+ * nothing: feed and rapid moves, a slow block, pen changes, a dwell and a
+ * smoothed arc (steps, slow, block, tool and wait chunks). */
+static void test_a_chunk_ring_holding_stale_bytes_changes_nothing_in_the_output(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    c.smooth.mode = PK_SMOOTH_TOLERANCE;
+    c.smooth.tolerance_um = 20;
+    c.smooth.sharp_turn_deg = 120;
+    static struct pk_mrun_op ops[200];
+    size_t n = 0;
+    ops[n++] = feed(5000, 0, 3000000);
+    ops[n++] = op_of(MR_PEN_DOWN, 0);
+    ops[n++] = feed(5000, 40, 600); /* slow: a few steps over seconds */
+    ops[n++] = op_of(MR_DWELL, 120);
+    ops[n++] = feed(-3000, 7000, 1200000);
+    ops[n++] = op_of(MR_PEN_UP, 0);
+    struct pk_mrun_op home = feed(0, 0, 0);
+    home.type = MR_RAPID;
+    ops[n++] = home;
+    ops[n++] = op_of(MR_PEN_DOWN, 0);
+    n += arc_ops(ops + n, 150, 4000.0, 1.0, 2400000);
+    ops[n++] = op_of(MR_PEN_UP, 0);
+    ops[n++] = op_of(MR_END, 0);
+    setup(&M, &R, &c, TICK_HZ);
+    struct pk_mrun_result ra = pk_mrun(&M, &R, ops, n, NULL);
+    setup(&M2, &R2, &c, TICK_HZ);
+    memset(M2.sg.ring, 0xA5, sizeof M2.sg.ring);
+    struct pk_mrun_result rb = pk_mrun(&M2, &R2, ops, n, NULL);
+    TH_ASSERT(!ra.timed_out && !rb.timed_out);
+    TH_EXPECT(R.n > 1000u);
+    TH_ASSERT_EQ(R.n, R2.n);
+    TH_EXPECT_EQ(event_diffs(&R, &R2, true), 0);
+    pk_steps_t p[PK_AXES], q[PK_AXES];
+    pk_machine_position_steps(&M, p);
+    pk_machine_position_steps(&M2, q);
+    TH_EXPECT_EQ(p[0], q[0]);
+    TH_EXPECT_EQ(p[1], q[1]);
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -758,6 +800,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_reset_mid_move_reports_the_interruption_and_keeps_the_real_position),
         TH_CASE(test_a_full_request_fifo_refuses_without_losing_anything),
         TH_CASE(test_pen_changes_switch_the_tool_output_at_a_standstill),
+        TH_CASE(test_a_chunk_ring_holding_stale_bytes_changes_nothing_in_the_output),
         TH_CASE(test_new_settings_keep_the_step_position),
     };
     int r = th_run(cases, TH_COUNT(cases));
