@@ -250,9 +250,10 @@ static SG_PREP uint32_t ratio_q15(uint32_t dv, uint32_t vsum)
 }
 
 /* The block's cached speeds (isqrt only when the plan changed them). */
-static SG_PREP void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
+static SG_PREP bool blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
 {
-    if (b->v2_nom != sg->c_v2_nom) {
+    bool nom = b->v2_nom != sg->c_v2_nom;
+    if (nom) {
         sg->c_v2_nom = b->v2_nom;
         sg->vn_q4 = pk_isqrt64(b->v2_nom << 4);   /* Q4 speed^2 * 16 = (v Q4)^2 */
     }
@@ -261,6 +262,7 @@ static SG_PREP void blk_speeds(struct pk_stepgen *sg, const struct pk_block *b)
         sg->ve_q4 = pk_isqrt64(b->v2_exit << 4);
         sg->ve_sq = sq64(sg->ve_q4);
     }
+    return nom;
 }
 
 void pk_sg_init(struct pk_stepgen *sg, uint8_t axes, uint32_t tick_hz, uint32_t pulse_ticks,
@@ -358,14 +360,24 @@ void pk_sg_plan_state(const struct pk_stepgen *sg, struct pk_mq *q, pk_v2_q4_t *
 /* Publish n events: the first `first` ticks Q16 after the previous event,
  * then the intervals c1 + A, c1 + 2A, ... (the ramp of one segment). Several
  * slots when n exceeds PK_SG_MAX_EVENTS or the first interval exceeds the
- * recurrence's range; each goes on where the last one stopped. */
+ * recurrence's range; each goes on where the last one stopped. All or
+ * nothing: the slots are written beyond the head and published together,
+ * so a segment that does not fit leaves the ring as it was (returns false)
+ * and is cut again, whole, once there is room. (Published one by one, a
+ * segment that ran out of room half way had its first chunks out while the
+ * caller kept its state: the next preparation sent them again, and again,
+ * and the axis ran on past its target.) */
 static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t first, int32_t c1, int32_t A,
                         uint32_t v_um_s)
 {
+    const uint8_t h = sg->head;
+    const uint32_t room = PK_SG_CHUNKS - pk_sg_pending(sg);
+    uint32_t used = 0;
     while (n > 0) {
-        struct pk_sg_chunk *c = ring_slot(sg);
-        if (c == NULL)
-            return false;  /* (the caller checked the room) */
+        if (used == room)
+            return false;  /* (nothing published) */
+        struct pk_sg_chunk *c = &sg->ring[(uint8_t)(h + used) & SG_MASK];
+        used++;
         c->v_um_s = v_um_s;
         if (first >= ((uint64_t)1 << 30)) {
             /* one event after a long interval: whole ticks + Q16 fraction */
@@ -373,7 +385,6 @@ static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t firs
             uint64_t t = first >> 16;
             c->u.ticks = (uint32_t)(t > UINT32_MAX ? UINT32_MAX : t);
             c->n = (uint16_t)(first & 0xffffu);
-            ring_commit(sg);
             n--;
             c1 += A;
             first = (uint64_t)(int64_t)c1;
@@ -385,11 +396,12 @@ static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t firs
         c->u.st.c0 = (int32_t)first;
         c->u.st.c1 = c1;
         c->u.st.c2 = A;
-        ring_commit(sg);
         n -= k;
         c1 += (int32_t)k * A;
         first = (uint64_t)(int64_t)c1;
     }
+    PK_BARRIER(); /* the chunks are written before they are published */
+    sg->head = (uint8_t)(h + used);
     return true;
 }
 
@@ -398,6 +410,7 @@ static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t firs
 /* A LINE block's first segment: the block's own slot (directions,
  * spindle, Bresenham), then its segment length and speed steps. Returns false
  * if the ring has no room for the slot. */
+static SG_PREP void seg_setup(struct pk_stepgen *sg, const struct pk_block *b);
 static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
 {
     /* the block's own slot first: directions, spindle, Bresenham */
@@ -429,18 +442,31 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
     sg->ev_r = span - sg->ev_q * b->events; /* (one division, not two) */
     sg->ev_next = b->lead_q8 + sg->ev_q;
     sg->ev_rem = sg->ev_r;
-    /* The segment: seg_max (2 ms by default), or shorter so that at twice the nominal speed
-     * (the highest override) a segment holds at most PK_SG_MAX_EVENTS
-     * events: 2 v_nom seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
-     * 4 ev_q tick_hz / (2 vn + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
+    blk_speeds(sg, b);
+    seg_setup(sg, b);
+    return true;
+}
+
+/* The block's segment length and its speed step per segment, for the
+ * nominal speed in force: at block start, and again when an override
+ * changes the nominal inside the block (cut for the old one, a rise from
+ * 10 % to 200 % put 20 times the events into a segment: more than the ring
+ * could take at once, test_motion_steps). */
+static SG_PREP void seg_setup(struct pk_stepgen *sg, const struct pk_block *b)
+{
+    /* The segment: seg_max (2 ms by default), or shorter so that at twice
+     * the nominal speed (or at the speed it runs at now, if that is higher:
+     * an override was lowered) a segment holds at most PK_SG_MAX_EVENTS
+     * events: vtop seg_t <= PK_SG_MAX_EVENTS L / M, i.e. seg_t <=
+     * 4 ev_q tick_hz / (vtop + 1) ticks with PK_SG_MAX_EVENTS = 64 (an
      * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
      * products stay below 2^50). */
-    blk_speeds(sg, b);
     uint32_t seg = sg->seg_max;
     /* room >= seg' (2 vn + 1) <=> lim >= seg' for integers, lim = floor(room
      * / (2 vn + 1)) (saturated: every seg' compared is below 2^17) */
     const uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
-    const uint32_t lim = div64_max(room, 2u * sg->vn_q4 + 1u, UINT32_MAX); /* vn < 2^24 */
+    const uint32_t v2n = 2u * sg->vn_q4, vtop = sg->v_q4 > v2n ? sg->v_q4 : v2n;
+    const uint32_t lim = div64_max(room, vtop + 1u, UINT32_MAX); /* v < 2^24 */
     if (lim < seg) {
         seg = lim < 16u ? 16u : lim;
         /* ds_q8 = (v0 + v1)_q4 * 8 seg / tick_hz (Q24); speed change per
@@ -464,7 +490,6 @@ static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
            && lim >= (sg->seg_max << (lv + 1u)))
         lv++;
     sg->lvl_max = lv;
-    return true;
 }
 
 /* One segment of the tail LINE block, between its speed phase (seg_speeds)
@@ -730,8 +755,10 @@ static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
     if (!sg->blk_sent && !blk_start(sg, b))
         return false;
     /* room for the segment's events: a slot per PK_SG_MAX_EVENTS, and one
-     * for a long first interval; a segment holds at most 2 PK_SG_MAX_EVENTS
-     * at the highest override */
+     * for a long first interval; a segment holds at most PK_SG_MAX_EVENTS + 1
+     * (seg_setup: cut for twice the nominal, or the speed now if higher, and
+     * cut again when an override changes the nominal). emit_events checks
+     * the room again, all or nothing. */
     if (PK_SG_CHUNKS - pk_sg_pending(sg) < 3u)
         return false;
     /* A probe that has fired holds from here on (the machine sets the same
@@ -742,7 +769,8 @@ static SG_PREP bool prep_line(struct pk_stepgen *sg, struct pk_block *b)
      * timing fell, and ran one step more than `plotkin sim` now and then. */
     if ((sg->watch & sg->fired & PK_SGW_PROBE) != 0u && !sg->hold)
         pk_sg_set_hold(sg, true);
-    blk_speeds(sg, b);
+    if (blk_speeds(sg, b))
+        seg_setup(sg, b); /* an override changed the nominal */
     struct sg_seg sp;
     if (!seg_speeds(sg, b, &sp))
         return false;

@@ -39,6 +39,7 @@ struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
     size_t limit = o && o->stop_after ? o->stop_after : n;
     uint64_t maxt = rec->now + (o && o->max_ticks ? o->max_ticks : tick_hz * 600u);
     uint64_t hold_at = o ? o->hold_at : 0, resume_at = o ? o->resume_at : 0;
+    uint64_t ovr_at = o ? o->ovr_at : 0;
     if (poll == 0)
         poll = 1;
     uint32_t yield_every = o ? o->yield_every : 0;
@@ -54,6 +55,10 @@ struct pk_mrun_result pk_mrun(struct pk_machine *m, struct pk_rec *rec,
         if (resume_at && !hold_at && rec->now >= resume_at) {
             pk_machine_resume(m);
             resume_at = 0;
+        }
+        if (ovr_at && rec->now >= ovr_at) {
+            (void)pk_machine_set_override(m, o->ovr_feed_pct, o->ovr_rapid_pct);
+            ovr_at = 0;
         }
         if (k % every == 0) {
             while (i < limit) {

@@ -34,6 +34,8 @@ struct pk_mrun_opts {
     uint64_t resume_at;      /* ... and resume at this tick */
     uint32_t yield_every;    /* if non-zero: the machine's yield flag (pk_machine_set_yield)
                                 is set on every n-th poll, as a realtime byte would */
+    uint64_t ovr_at;         /* if non-zero: at this tick set the overrides ... */
+    uint16_t ovr_feed_pct, ovr_rapid_pct; /* ... to these (pk_machine_set_override) */
 };
 
 struct pk_mrun_result {

@@ -776,6 +776,62 @@ static void test_a_chunk_ring_holding_stale_bytes_changes_nothing_in_the_output(
     TH_EXPECT_EQ(p[1], q[1]);
 }
 
+/* An override changed while a block runs: the step generator cut the block's
+ * segments for the speed of the override in force when the block started
+ * (at most 2 x PK_SG_MAX_EVENTS events a segment at twice that speed), so a
+ * rise from 10 % to 200 % (20x) made a cruise segment hold hundreds of
+ * events: more than the free ring slots. The segment's first chunks were
+ * published, the rest did not fit, and the next preparation cut the same
+ * segment again: its events went out again and again, the axis ran past
+ * its target without end (found by fuzz_motion). And a drop from 200 % to
+ * 10 % mid-block: the deceleration from the old speed runs in the segments
+ * of the new, slower one. Either way each axis must step exactly to its
+ * target: one rising edge per step, none twice. */
+static void test_an_override_changed_mid_block_steps_each_step_once(void)
+{
+    struct pk_motion_cfg c = cfg_default();
+    c.steps_per_mm_q16[0] = spmm(400.0);
+    c.steps_per_mm_q16[1] = spmm(393.7);
+    c.max_rate[0] = c.max_rate[1] = 12000000; /* 200 mm/s: 80,000 steps/s */
+    c.accel[0] = c.accel[1] = 4000000;
+    static const struct { uint16_t from, to; } ovr[] = { { 10, 200 }, { 200, 10 }, { 100, 200 } };
+    for (unsigned k = 0; k < TH_COUNT(ovr); k++) {
+        setup(&M, &R, &c, 10000000u);
+        TH_ASSERT_EQ(pk_machine_set_override(&M, ovr[k].from, 100), PK_MOTION_OK);
+        struct pk_mrun_op ops[2] = { feed(150000, 30000, 6000000), op_of(MR_END, 0) };
+        /* change it while cruising in the first move (at 10 %: 10 mm/s, 0.3 s
+         * in; at 200 %: 200 mm/s, 0.1 s in, before 20 mm of 150) */
+        struct pk_mrun_opts o = { .poll_ticks = 1000, .ovr_at = ovr[k].from == 10 ? 3000000u : 1000000u,
+                                  .ovr_feed_pct = ovr[k].to, .ovr_rapid_pct = 100,
+                                  .max_ticks = 600000000u };
+        struct pk_mrun_result res = pk_mrun(&M, &R, ops, 2, &o);
+        TH_EXPECT(!res.timed_out);
+        pk_steps_t p[PK_AXES];
+        pk_machine_position_steps(&M, p);
+        TH_EXPECT_EQ(p[0], oracle_steps(150000, c.steps_per_mm_q16[0]));
+        TH_EXPECT_EQ(p[1], oracle_steps(30000, c.steps_per_mm_q16[1]));
+        for (unsigned a = 0; a < 2; a++) {
+            size_t cnt = 0;
+            TH_EXPECT_EQ(edge_sum(&R, a, &cnt), p[a]);
+            TH_EXPECT_EQ((long)cnt, p[a]); /* one direction: no step back and forth */
+        }
+        /* and never above an axis's max rate (as the overrides promise) */
+        TH_EXPECT(worst_rate_ratio(&R, 0, 200.0 * 400.0, 32) <= 1.0);
+        /* and from the change on the speed changes smoothly, within the
+         * acceleration (no ring run dry between segments too long for it) */
+        uint64_t *t;
+        int8_t *d;
+        size_t ne = pk_mrun_edges(&R, 0, &t, &d), from = 0;
+        while (from < ne && t[from] < o.ovr_at)
+            from++;
+        free(t);
+        free(d);
+        TH_EXPECT(from > 1000u && from < ne);
+        double L = sqrt(150.0 * 150.0 + 30.0 * 30.0);
+        TH_EXPECT(worst_accel_ratio(&R, 0, 4000.0 * 150.0 / L * 400.0, from, SIZE_MAX) <= 1.0);
+    }
+}
+
 int th_main(int argc, char **argv)
 {
     (void)argc;
@@ -802,6 +858,7 @@ int th_main(int argc, char **argv)
         TH_CASE(test_pen_changes_switch_the_tool_output_at_a_standstill),
         TH_CASE(test_a_chunk_ring_holding_stale_bytes_changes_nothing_in_the_output),
         TH_CASE(test_new_settings_keep_the_step_position),
+        TH_CASE(test_an_override_changed_mid_block_steps_each_step_once),
     };
     int r = th_run(cases, TH_COUNT(cases));
     pk_rec_free(&R);
