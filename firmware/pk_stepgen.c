@@ -405,12 +405,11 @@ static SG_PREP bool emit_events(struct pk_stepgen *sg, uint32_t n, uint64_t firs
     return true;
 }
 
-/* Cut the next segment of the tail LINE block b. Returns false if none
- * (held, or the ring has no room for it). */
+static SG_PREP void seg_setup(struct pk_stepgen *sg, const struct pk_block *b);
+
 /* A LINE block's first segment: the block's own slot (directions,
  * spindle, Bresenham), then its segment length and speed steps. Returns false
  * if the ring has no room for the slot. */
-static SG_PREP void seg_setup(struct pk_stepgen *sg, const struct pk_block *b);
 static SG_PREP bool blk_start(struct pk_stepgen *sg, struct pk_block *b)
 {
     /* the block's own slot first: directions, spindle, Bresenham */
@@ -462,8 +461,8 @@ static SG_PREP void seg_setup(struct pk_stepgen *sg, const struct pk_block *b)
      * event spans at most 1 mm sqrt(3) at 1 step/mm: ev_q < 2^19, so the
      * products stay below 2^50). */
     uint32_t seg = sg->seg_max;
-    /* room >= seg' (2 vn + 1) <=> lim >= seg' for integers, lim = floor(room
-     * / (2 vn + 1)) (saturated: every seg' compared is below 2^17) */
+    /* room >= seg' (vtop + 1) <=> lim >= seg' for integers, lim = floor(room
+     * / (vtop + 1)) (saturated: every seg' compared is below 2^17) */
     const uint64_t room = (uint64_t)sg->ev_q * (PK_SG_MAX_EVENTS / 16u) * sg->tick_hz;
     const uint32_t v2n = 2u * sg->vn_q4, vtop = sg->v_q4 > v2n ? sg->v_q4 : v2n;
     const uint32_t lim = div64_max(room, vtop + 1u, UINT32_MAX); /* v < 2^24 */
